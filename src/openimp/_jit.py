@@ -1,0 +1,47 @@
+"""Compilation switch for the kernels.
+
+Every hot function of openimp is written once, in the subset of Python that
+numba compiles in nopython mode, and decorated with :func:`njit`.  With numba
+present the decorator compiles it (cached on disk, so later runs load the
+machine code); with ``OPENIMP_NOJIT=1`` in the environment the very same
+functions run as plain Python, which is slow but handy for debugging.  There is
+no second implementation to keep in step.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from typing import Any, TypeVar
+
+F = TypeVar("F", bound=Callable[..., Any])
+
+JIT_ENABLED = os.environ.get("OPENIMP_NOJIT", "") in ("", "0")
+
+try:  # numba is a declared dependency; the fallback only serves OPENIMP_NOJIT debugging
+    import numba as _numba
+except ImportError:  # pragma: no cover - exercised only on broken installs
+    _numba = None
+    JIT_ENABLED = False
+
+
+def njit(*args: Any, **kwargs: Any) -> Any:
+    """Compile a function in nopython mode with an on-disk cache (or leave it as is).
+
+    Usable bare (``@njit``) or with numba options (``@njit(parallel=True)``).
+    """
+    kwargs.setdefault("cache", True)
+    kwargs.setdefault("nogil", True)
+
+    def wrap(fn: F) -> F:
+        if not JIT_ENABLED:
+            return fn
+        return _numba.njit(**kwargs)(fn)  # type: ignore[no-any-return]
+
+    if len(args) == 1 and callable(args[0]) and not kwargs.get("_called", False):
+        return wrap(args[0])
+    return wrap
+
+
+#: ``numba.prange`` when compiling (parallel loops), plain ``range`` otherwise.
+prange = _numba.prange if JIT_ENABLED else range

@@ -1,0 +1,830 @@
+"""Posture, velocity and acceleration analysis (book ch 5-8).
+
+The kernels here work on the flat arrays of :class:`~openimp.system.System`
+(:data:`~openimp.system.KData`) and are compiled by numba (see
+:mod:`openimp._jit`):
+
+* :func:`postures` - T_0b of every body along the spanning tree (5.4, 5.5);
+* :func:`loop_equations` - the loop residuals E_i with the false-solution
+  guard (6.40, 6.48), the Euler-Rodrigues rows (6.43) and the Jacobian
+  built from the screw coordinates of D_h = A_h Q_h A_h^-1 (6.14, 6.41, 6.45);
+* :func:`gauss_jordan` - the restricted complete-pivoting Gauss-Jordan
+  elimination of book 6.5.3 that never pivots on a specified coordinate and
+  keeps its by-products (J11^-1, J11^-1 J12, J11^-1 J13) in the tableau;
+* :func:`newton` - Newton-Raphson to the tolerance, with a divergence guard;
+* :func:`sweep_kernel` - a whole sweep: first-order predictor from the
+  by-products, step halving, quality index, mobility and FGCs per step.
+
+:func:`sweep` is the Python entry point; it returns a :class:`SweepResult`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from openimp._jit import njit
+from openimp.errors import AnalysisError, InputError
+from openimp.joints import MAXV, SPHERE, joint_phi, joint_Q
+
+if TYPE_CHECKING:
+    from openimp.system import System
+
+# status codes of the kernels
+OK = 0
+MAXITER = 1
+DIVERGED = 2
+SGC_DETERMINED = 3
+
+
+# =============================================================================
+# 4x4 helpers
+# =============================================================================
+@njit
+def mul4(a: np.ndarray, b: np.ndarray, out: np.ndarray) -> None:
+    """out = a @ b for homogeneous 4x4 matrices (last row 0 0 0 1 assumed)."""
+    for i in range(3):
+        for j in range(4):
+            out[i, j] = a[i, 0] * b[0, j] + a[i, 1] * b[1, j] + a[i, 2] * b[2, j]
+        out[i, 3] += a[i, 3]
+    out[3, 0] = 0.0
+    out[3, 1] = 0.0
+    out[3, 2] = 0.0
+    out[3, 3] = 1.0
+
+
+@njit
+def inv4(a: np.ndarray, out: np.ndarray) -> None:
+    """Rigid inverse of a homogeneous 4x4 whose rotation part is orthogonal."""
+    for i in range(3):
+        for j in range(3):
+            out[i, j] = a[j, i]
+    for i in range(3):
+        out[i, 3] = -(a[0, i] * a[0, 3] + a[1, i] * a[1, 3] + a[2, i] * a[2, 3])
+    out[3, 0] = 0.0
+    out[3, 1] = 0.0
+    out[3, 2] = 0.0
+    out[3, 3] = 1.0
+
+
+@njit
+def gen_inv4(a: np.ndarray, out: np.ndarray) -> None:
+    """Inverse of a homogeneous 4x4 whose 3x3 block need not be orthogonal.
+
+    Joint matrices built from Euler-Rodrigues parameters off the unit sphere
+    are scaled rotations; the exact inverse keeps Newton consistent there.
+    """
+    m = a
+    det = (
+        m[0, 0] * (m[1, 1] * m[2, 2] - m[1, 2] * m[2, 1])
+        - m[0, 1] * (m[1, 0] * m[2, 2] - m[1, 2] * m[2, 0])
+        + m[0, 2] * (m[1, 0] * m[2, 1] - m[1, 1] * m[2, 0])
+    )
+    inv = 1.0 / det
+    out[0, 0] = (m[1, 1] * m[2, 2] - m[1, 2] * m[2, 1]) * inv
+    out[0, 1] = (m[0, 2] * m[2, 1] - m[0, 1] * m[2, 2]) * inv
+    out[0, 2] = (m[0, 1] * m[1, 2] - m[0, 2] * m[1, 1]) * inv
+    out[1, 0] = (m[1, 2] * m[2, 0] - m[1, 0] * m[2, 2]) * inv
+    out[1, 1] = (m[0, 0] * m[2, 2] - m[0, 2] * m[2, 0]) * inv
+    out[1, 2] = (m[0, 2] * m[1, 0] - m[0, 0] * m[1, 2]) * inv
+    out[2, 0] = (m[1, 0] * m[2, 1] - m[1, 1] * m[2, 0]) * inv
+    out[2, 1] = (m[0, 1] * m[2, 0] - m[0, 0] * m[2, 1]) * inv
+    out[2, 2] = (m[0, 0] * m[1, 1] - m[0, 1] * m[1, 0]) * inv
+    for i in range(3):
+        out[i, 3] = -(out[i, 0] * a[0, 3] + out[i, 1] * a[1, 3] + out[i, 2] * a[2, 3])
+    out[3, 0] = 0.0
+    out[3, 1] = 0.0
+    out[3, 2] = 0.0
+    out[3, 3] = 1.0
+
+
+# =============================================================================
+# Postures and loop equations
+# =============================================================================
+@njit
+def joint_transforms(K: Any, q: np.ndarray, Phi: np.ndarray, Tj: np.ndarray) -> None:
+    """Phi_h and T_{h-,h+} = S_{h-,h} Phi_h S_{h+,h}^-1 (5.4) of every joint."""
+    tmp = np.empty((4, 4))
+    for h in range(K.jcode.shape[0]):
+        a = K.jq0[h]
+        c0 = K.jc0[h]
+        joint_phi(K.jcode[h], q[a:a + K.jnv[h]], K.const[c0:], Phi[h])
+        mul4(K.S1[h], Phi[h], tmp)
+        mul4(tmp, K.S2inv[h], Tj[h])
+
+
+@njit
+def postures(K: Any, Tj: np.ndarray, T0: np.ndarray, A: np.ndarray) -> None:
+    """T_0b of every body along the tree, and A_h = T_{0h-} S_{h-,h} of every joint."""
+    tmp = np.empty((4, 4))
+    for k in range(K.order.shape[0]):
+        b = K.order[k]
+        h = K.pj[b]
+        if h < 0:
+            T0[b] = K.Tref[b]
+        elif K.psign[b] > 0:
+            mul4(T0[K.jb1[h]], Tj[h], T0[b])
+        else:
+            gen_inv4(Tj[h], tmp)
+            mul4(T0[K.jb2[h]], tmp, T0[b])
+    for h in range(K.jcode.shape[0]):
+        mul4(T0[K.jb1[h]], K.S1[h], A[h])
+
+
+@njit
+def screw_columns(K: Any, q: np.ndarray, A: np.ndarray, Dh: np.ndarray) -> None:
+    """Screw coordinates (6.41) of D = A Q A^-1 for every joint variable, into Dh[nq, 6]."""
+    Qb = np.empty((MAXV, 4, 4))
+    for h in range(K.jcode.shape[0]):
+        nv = K.jnv[h]
+        if nv == 0:
+            continue
+        a0 = K.jq0[h]
+        joint_Q(K.jcode[h], q[a0:a0 + nv], K.const[K.jc0[h]:], Qb)
+        Ah = A[h]
+        for g in range(nv):
+            Qg = Qb[g]
+            # M' = R M R^T (only the three skew entries are needed)
+            RM = np.empty((3, 3))
+            for i in range(3):
+                for j in range(3):
+                    RM[i, j] = Ah[i, 0] * Qg[0, j] + Ah[i, 1] * Qg[1, j] + Ah[i, 2] * Qg[2, j]
+            Mp = np.empty((3, 3))
+            for i in range(3):
+                for j in range(3):
+                    Mp[i, j] = RM[i, 0] * Ah[j, 0] + RM[i, 1] * Ah[j, 1] + RM[i, 2] * Ah[j, 2]
+            col = a0 + g
+            for i in range(3):
+                # column 4: R v - M' p
+                Dh[col, i] = (
+                    Ah[i, 0] * Qg[0, 3] + Ah[i, 1] * Qg[1, 3] + Ah[i, 2] * Qg[2, 3]
+                    - (Mp[i, 0] * Ah[0, 3] + Mp[i, 1] * Ah[1, 3] + Mp[i, 2] * Ah[2, 3])
+                )
+            Dh[col, 3] = Mp[2, 1]
+            Dh[col, 4] = Mp[0, 2]
+            Dh[col, 5] = Mp[1, 0]
+
+
+@njit
+def loop_equations(
+    K: Any, q: np.ndarray, T0: np.ndarray, A: np.ndarray, Tj: np.ndarray,
+    Dh: np.ndarray, J: np.ndarray, E: np.ndarray,
+) -> float:
+    """Jacobian J and right-hand side E of J dq = E (6.45); returns max |E|.
+
+    Loop i closes chord c from body b to body d:  F = T_0b T_c T_0d^-1 = I.
+    Its first-order expansion is  sum_h L(i,h) D_h dphi_h = F - I  with the
+    loop row L = P(d) - P(b) - e_c, so E_i = F - I, taken through the
+    false-solution guard (6.48).
+    """
+    nl = K.L.shape[0]
+    nj = K.jcode.shape[0]
+    nq = q.shape[0]
+    m = J.shape[0]
+    for r in range(m):
+        for c in range(nq):
+            J[r, c] = 0.0
+    screw_columns(K, q, A, Dh)
+    F = np.empty((4, 4))
+    tmp = np.empty((4, 4))
+    inv_d = np.empty((4, 4))
+    err = 0.0
+    for i in range(nl):
+        ch = K.chord[i]
+        mul4(T0[K.jb1[ch]], Tj[ch], tmp)
+        inv4(T0[K.jb2[ch]], inv_d)
+        mul4(tmp, inv_d, F)
+        r0 = 6 * i
+        E[r0 + 0] = F[0, 3]
+        E[r0 + 1] = F[1, 3]
+        E[r0 + 2] = F[2, 3]
+        # (6.48): the diagonal terms (cos-1, second order near a true closure)
+        # push the iteration away from a false solution with 180 deg errors.
+        E[r0 + 3] = F[2, 1] + (F[1, 1] - 1.0) + (F[2, 2] - 1.0)
+        E[r0 + 4] = F[0, 2] + (F[0, 0] - 1.0) + (F[2, 2] - 1.0)
+        E[r0 + 5] = F[1, 0] + (F[1, 1] - 1.0) + (F[0, 0] - 1.0)
+        for k in range(6):
+            if abs(E[r0 + k]) > err:
+                err = abs(E[r0 + k])
+        for h in range(nj):
+            lih = K.L[i, h]
+            if lih == 0:
+                continue
+            a0 = K.jq0[h]
+            for g in range(K.jnv[h]):
+                for k in range(6):
+                    J[r0 + k, a0 + g] = lih * Dh[a0 + g, k]
+    r = 6 * nl
+    for k in range(K.er.shape[0]):
+        e0 = K.er[k]
+        s = 0.0
+        for t in range(4):
+            J[r + k, e0 + t] = 2.0 * q[e0 + t]
+            s += q[e0 + t] * q[e0 + t]
+        E[r + k] = 1.0 - s
+        if abs(E[r + k]) > err:
+            err = abs(E[r + k])
+    return err
+
+
+@njit
+def gauss_jordan(
+    J: np.ndarray, E: np.ndarray, sgc: np.ndarray, tol: float,
+    T: np.ndarray, prow: np.ndarray, pcol: np.ndarray,
+) -> tuple[int, float]:
+    """Restricted complete-pivoting Gauss-Jordan elimination (book 6.5.3).
+
+    The tableau ``T`` (m x (n + m + 1)) receives [J | I | E] reduced in place:
+    pivot row ``prow[k]`` holds, in the columns of J, a unit at ``pcol[k]`` and
+    the by-products J11^-1 J12 (free columns) and J11^-1 J13 (specified
+    columns); in the next m columns J11^-1 (pivot rows) and -J21 J11^-1
+    (other rows); in the last the solution.  Columns with ``sgc`` true are
+    never pivoted.  Returns the rank and the quality index |det J11|.
+    """
+    m = J.shape[0]
+    n = J.shape[1]
+    w = n + m + 1
+    for r in range(m):
+        for c in range(n):
+            T[r, c] = J[r, c]
+        for c in range(n, n + m):
+            T[r, c] = 0.0
+        T[r, n + r] = 1.0
+        T[r, n + m] = E[r]
+    rowused = np.zeros(m, np.bool_)
+    colused = np.zeros(n, np.bool_)
+    det = 1.0
+    rank = 0
+    for k in range(min(m, n)):
+        best = 0.0
+        br = -1
+        bc = -1
+        for r in range(m):
+            if rowused[r]:
+                continue
+            for c in range(n):
+                if colused[c] or sgc[c]:
+                    continue
+                v = abs(T[r, c])
+                if v > best:
+                    best = v
+                    br = r
+                    bc = c
+        if best <= tol:
+            break
+        rowused[br] = True
+        colused[bc] = True
+        prow[k] = br
+        pcol[k] = bc
+        rank += 1
+        piv = T[br, bc]
+        det *= best
+        inv = 1.0 / piv
+        for c in range(w):
+            T[br, c] *= inv
+        T[br, bc] = 1.0
+        for r in range(m):
+            if r == br:
+                continue
+            f = T[r, bc]
+            if f != 0.0:
+                for c in range(w):
+                    T[r, c] -= f * T[br, c]
+                T[r, bc] = 0.0
+    return rank, det
+
+
+@njit
+def sgc_residual(T: np.ndarray, sgc: np.ndarray, prow: np.ndarray, rank: int, n: int) -> float:
+    """Largest entry left in the specified columns of the unpivoted rows (6.5.3 e).
+
+    Non-zero means a specified coordinate is determined by the constraints.
+    """
+    m = T.shape[0]
+    used = np.zeros(m, np.bool_)
+    for k in range(rank):
+        used[prow[k]] = True
+    worst = 0.0
+    for r in range(m):
+        if used[r]:
+            continue
+        for c in range(n):
+            if sgc[c] and abs(T[r, c]) > worst:
+                worst = abs(T[r, c])
+    return worst
+
+
+@njit
+def normalise_er(K: Any, q: np.ndarray) -> None:
+    """Put every Euler-Rodrigues block back on the unit sphere (digest 9.27)."""
+    for k in range(K.er.shape[0]):
+        e0 = K.er[k]
+        s = 0.0
+        for t in range(4):
+            s += q[e0 + t] * q[e0 + t]
+        s = math.sqrt(s)
+        if s > 0.0:
+            for t in range(4):
+                q[e0 + t] /= s
+
+
+class Work:
+    """Scratch arrays of one solver (allocated once per sweep, reused every step)."""
+
+    def __init__(self, K: Any, nq: int) -> None:
+        nj = K.jcode.shape[0]
+        nb = K.order.shape[0]
+        m = 6 * K.L.shape[0] + K.er.shape[0]
+        self.Phi = np.zeros((nj, 4, 4))
+        self.Tj = np.zeros((nj, 4, 4))
+        self.T0 = np.zeros((nb, 4, 4))
+        self.A = np.zeros((nj, 4, 4))
+        self.Dh = np.zeros((max(nq, 1), 6))
+        self.J = np.zeros((m, nq))
+        self.E = np.zeros(m)
+        self.T = np.zeros((m, nq + m + 1))
+        self.prow = np.zeros(max(m, 1), np.int64)
+        self.pcol = np.zeros(max(m, 1), np.int64)
+        self.dq = np.zeros(nq)
+
+    def as_tuple(self) -> tuple[np.ndarray, ...]:
+        """The arrays in the order the kernels take them."""
+        return (self.Phi, self.Tj, self.T0, self.A, self.Dh, self.J, self.E, self.T,
+                self.prow, self.pcol, self.dq)
+
+
+@njit
+def evaluate(
+    K: Any, q: np.ndarray, sgc: np.ndarray, ptol: float,
+    Phi: np.ndarray, Tj: np.ndarray, T0: np.ndarray, A: np.ndarray, Dh: np.ndarray,
+    J: np.ndarray, E: np.ndarray, T: np.ndarray, prow: np.ndarray, pcol: np.ndarray,
+) -> tuple[float, int, float]:
+    """Postures, loop equations and their elimination at ``q``: (max|E|, rank, quality)."""
+    joint_transforms(K, q, Phi, Tj)
+    postures(K, Tj, T0, A)
+    err = loop_equations(K, q, T0, A, Tj, Dh, J, E)
+    rank, det = gauss_jordan(J, E, sgc, ptol, T, prow, pcol)
+    return err, rank, det
+
+
+@njit
+def newton(
+    K: Any, q: np.ndarray, sgc: np.ndarray, tol: float, ptol: float, maxit: int,
+    Phi: np.ndarray, Tj: np.ndarray, T0: np.ndarray, A: np.ndarray, Dh: np.ndarray,
+    J: np.ndarray, E: np.ndarray, T: np.ndarray, prow: np.ndarray, pcol: np.ndarray,
+    dq: np.ndarray,
+) -> tuple[int, int, int, float]:
+    """Newton-Raphson on the loop equations (book 6.5); q is updated in place.
+
+    Converged when every |E| and every correction is below ``tol`` (internal
+    units).  Returns (status, iterations, rank, quality); the tableau in ``T``
+    belongs to the final posture, so its by-products serve the derivatives.
+    """
+    nq = q.shape[0]
+    m = J.shape[0]
+    prev = 1e300
+    grow = 0
+    rank = 0
+    det = 0.0
+    for it in range(maxit):
+        err, rank, det = evaluate(K, q, sgc, ptol, Phi, Tj, T0, A, Dh, J, E, T, prow, pcol)
+        step = 0.0
+        for c in range(nq):
+            dq[c] = 0.0
+        for k in range(rank):
+            v = T[prow[k], nq + m]
+            dq[pcol[k]] = v
+            if abs(v) > step:
+                step = abs(v)
+        if err < tol and step < tol:
+            for c in range(nq):
+                q[c] += dq[c]
+            return OK, it + 1, rank, det
+        if err > prev:
+            grow += 1
+            if grow >= 3 or err > 1e3 * prev:
+                return DIVERGED, it + 1, rank, det
+        prev = err
+        if step > 2.0:  # a correction beyond ~2 rad / 2 model sizes: not "nearby"
+            return DIVERGED, it + 1, rank, det
+        for c in range(nq):
+            q[c] += dq[c]
+        normalise_er(K, q)
+    return MAXITER, maxit, rank, det
+
+
+@njit
+def derivative_matrix(
+    T: np.ndarray, prow: np.ndarray, pcol: np.ndarray, rank: int, cols: np.ndarray,
+    nq: int, G: np.ndarray,
+) -> None:
+    """First geometric derivatives dq/dpsi for the coordinates ``cols`` (7.14).
+
+    G[:, j] = -J11^-1 J1j in the dependent rows, 1 at cols[j], 0 elsewhere.
+    """
+    for r in range(nq):
+        for j in range(cols.shape[0]):
+            G[r, j] = 0.0
+    for j in range(cols.shape[0]):
+        G[cols[j], j] = 1.0
+        for k in range(rank):
+            G[pcol[k], j] = -T[prow[k], cols[j]]
+
+
+@njit
+def sweep_kernel(
+    K: Any, q: np.ndarray, sgc: np.ndarray, dcols: np.ndarray, dvals: np.ndarray,
+    tol: float, ptol: float, maxit: int, maxhalve: int,
+    Qout: np.ndarray, quality: np.ndarray, rank_out: np.ndarray, fgc_out: np.ndarray,
+    iters_out: np.ndarray,
+    Phi: np.ndarray, Tj: np.ndarray, T0: np.ndarray, A: np.ndarray, Dh: np.ndarray,
+    J: np.ndarray, E: np.ndarray, T: np.ndarray, prow: np.ndarray, pcol: np.ndarray,
+    dq: np.ndarray,
+) -> tuple[int, int]:
+    """Solve every posture of a sweep (book 6.5, 6.9).
+
+    ``q`` holds a closed posture on entry.  For step k the specified columns
+    ``dcols`` go to ``dvals[k]``: the dependent variables are predicted to
+    first order from the last elimination's by-products (-J11^-1 J13 dpsi),
+    then corrected by Newton.  A step that fails is retried from the last
+    good posture in halves, down to 2^-maxhalve of it.  Returns (steps solved,
+    status of the first failure or OK).
+    """
+    nq = q.shape[0]
+    nd = dcols.shape[0]
+    nsteps = dvals.shape[0]
+    G = np.zeros((nq, nd))
+    qtry = q.copy()
+    # the elimination at the start posture provides the first predictor
+    st, it, rank, det = newton(K, q, sgc, tol, ptol, maxit, Phi, Tj, T0, A, Dh, J, E, T,
+                               prow, pcol, dq)
+    if st != OK:
+        return 0, st
+    derivative_matrix(T, prow, pcol, rank, dcols, nq, G)
+    for k in range(nsteps):
+        frac = 1.0
+        done = False
+        total_it = 0
+        while not done:
+            # remaining move of the drivers from the current good posture
+            for c in range(nq):
+                qtry[c] = q[c]
+            for j in range(nd):
+                d = (dvals[k, j] - q[dcols[j]]) * frac
+                for r in range(nq):
+                    qtry[r] += G[r, j] * d
+            normalise_er(K, qtry)
+            last = frac == 1.0
+            if last:
+                for j in range(nd):
+                    qtry[dcols[j]] = dvals[k, j]
+            st, it, rank, det = newton(K, qtry, sgc, tol, ptol, maxit, Phi, Tj, T0, A, Dh,
+                                       J, E, T, prow, pcol, dq)
+            total_it += it
+            if st == OK:
+                for c in range(nq):
+                    q[c] = qtry[c]
+                derivative_matrix(T, prow, pcol, rank, dcols, nq, G)
+                if last:
+                    done = True
+                else:
+                    frac = min(1.0, 2.0 * frac)
+            else:
+                frac *= 0.5
+                if frac < 0.5 ** maxhalve:
+                    return k, st
+        for c in range(nq):
+            Qout[k, c] = q[c]
+        quality[k] = det
+        rank_out[k] = rank
+        iters_out[k] = total_it
+        piv = np.zeros(nq, np.bool_)
+        for t in range(rank):
+            piv[pcol[t]] = True
+        for c in range(nq):
+            fgc_out[k, c] = (not piv[c]) and (not sgc[c])
+    return nsteps, OK
+
+
+@njit
+def point_positions(K: Any, T0s: np.ndarray, out: np.ndarray) -> None:
+    """Global positions of every point for a stack of posture sets T0s[steps, nb]."""
+    for s in range(T0s.shape[0]):
+        for p in range(K.ptbody.shape[0]):
+            Tb = T0s[s, K.ptbody[p]]
+            r = K.ptlocal[p]
+            for i in range(3):
+                out[s, p, i] = Tb[i, 0] * r[0] + Tb[i, 1] * r[1] + Tb[i, 2] * r[2] + Tb[i, 3]
+
+
+@njit
+def postures_of(K: Any, Qs: np.ndarray, out: np.ndarray) -> None:
+    """Body postures T_0b for every row of ``Qs`` (forward pass along the tree)."""
+    nj = K.jcode.shape[0]
+    Phi = np.zeros((nj, 4, 4))
+    Tj = np.zeros((nj, 4, 4))
+    A = np.zeros((nj, 4, 4))
+    for s in range(Qs.shape[0]):
+        joint_transforms(K, Qs[s], Phi, Tj)
+        postures(K, Tj, out[s], A)
+
+
+# =============================================================================
+# Python side
+# =============================================================================
+def _driver_columns(
+    system: System, drivers: Mapping[Any, Sequence[float] | np.ndarray]
+) -> tuple[np.ndarray, np.ndarray]:
+    """Columns and (steps x nd) values (internal units) of the drivers."""
+    if not drivers:
+        raise InputError("give at least one driver: a joint name mapped to its values")
+    cols: list[int] = []
+    vals: list[np.ndarray] = []
+    nsteps = None
+    for key, v in drivers.items():
+        c = system.var_index(key)
+        if system.var_kinds[c] == "er":
+            raise InputError(
+                f"driver {key!r}: an Euler-Rodrigues parameter cannot be driven; "
+                "drive a joint with angle or length variables"
+            )
+        if c in cols:
+            raise InputError(f"driver {key!r} is given twice")
+        a = np.atleast_1d(np.asarray(v, dtype=float))
+        if a.ndim != 1 or a.size == 0 or not np.all(np.isfinite(a)):
+            raise InputError(f"driver {key!r}: give a non-empty sequence of finite numbers")
+        if nsteps is None:
+            nsteps = a.size
+        elif a.size != nsteps:
+            raise InputError(
+                f"driver {key!r} has {a.size} values but the other drivers have {nsteps}; "
+                "give every driver the same number of steps"
+            )
+        cols.append(c)
+        vals.append(a / system.var_scale[c])
+    return np.array(cols, np.int64), np.stack(vals, axis=1)
+
+
+class SweepResult:
+    """Postures of a mechanism along a sweep.
+
+    Joint variables are stored for every solved step; body postures and point
+    positions are recomputed from them on demand (cheap, and it keeps a
+    million-step sweep small).  All results are in model units (radians for
+    angles).
+    """
+
+    def __init__(
+        self, system: System, q: np.ndarray, quality: np.ndarray, rank: np.ndarray,
+        fgc: np.ndarray, iterations: np.ndarray, drivers: list[str], message: str = "",
+    ) -> None:
+        self.system = system
+        self._q = q  # internal units
+        self.quality = quality
+        self.rank = rank
+        self._fgc = fgc
+        self.iterations = iterations
+        self.drivers = drivers
+        #: empty when every step was solved; otherwise why the sweep stopped
+        self.message = message
+        self._T0: np.ndarray | None = None
+
+    @property
+    def nsteps(self) -> int:
+        """Number of solved steps."""
+        return int(self._q.shape[0])
+
+    @property
+    def complete(self) -> bool:
+        """True when every requested step was solved."""
+        return not self.message
+
+    @property
+    def q(self) -> np.ndarray:
+        """All joint variables (steps x nq), model units."""
+        return self._q * self.system.var_scale
+
+    @property
+    def mobility(self) -> np.ndarray:
+        """Mobility f = n - rank(J) at every step (6.52)."""
+        return self.system.nq - self.rank
+
+    @property
+    def fgc(self) -> list[list[str]]:
+        """Names of the free generalized coordinates chosen at every step."""
+        names = self.system.var_names
+        return [[names[c] for c in np.flatnonzero(row)] for row in self._fgc]
+
+    def joint(self, name: str) -> np.ndarray:
+        """Variables of one joint (steps x nvar), model units."""
+        sl = self.system.joint_vars(name)
+        return self.q[:, sl]
+
+    def variable(self, key: Any) -> np.ndarray:
+        """One joint variable over the steps (key as in System.var_index)."""
+        c = self.system.var_index(key)
+        return self.q[:, c]
+
+    def _postures(self) -> np.ndarray:
+        if self._T0 is None:
+            nb = len(self.system.bodies)
+            out = np.zeros((self.nsteps, nb, 4, 4))
+            postures_of(self.system.K, np.ascontiguousarray(self._q), out)
+            out[..., :3, 3] *= self.system.length_scale
+            self._T0 = out
+        return self._T0
+
+    def posture(self, body: str) -> np.ndarray:
+        """Global posture T_0b of a body (steps x 4 x 4), model units."""
+        return self._postures()[:, self.system.body_index(body)].copy()
+
+    def point(self, name: str) -> np.ndarray:
+        """Global position of a point (steps x 3), model units."""
+        i = self.system.point_index(name)
+        K = self.system.K
+        T = self._postures()[:, K.ptbody[i]]
+        r = K.ptlocal[i].copy()
+        r[:3] *= self.system.length_scale
+        return np.einsum("sij,j->si", T, r)[:, :3]
+
+    def to_table(self) -> dict[str, Any]:
+        """Columns: step, every joint variable, quality, mobility (model units)."""
+        cols: dict[str, Any] = {"step": np.arange(self.nsteps)}
+        q = self.q
+        for c, n in enumerate(self.system.var_names):
+            cols[n] = q[:, c]
+        cols["quality"] = self.quality
+        cols["mobility"] = self.mobility
+        return cols
+
+    def __repr__(self) -> str:
+        state = "complete" if self.complete else f"stopped: {self.message}"
+        return f"SweepResult({self.nsteps} steps, {state})"
+
+
+def sweep(
+    system: System,
+    drivers: Mapping[Any, Sequence[float] | np.ndarray],
+    rates: Mapping[Any, Sequence[float] | np.ndarray] | None = None,
+    accels: Mapping[Any, Sequence[float] | np.ndarray] | None = None,
+    *,
+    tol: float = 1e-10,
+    pivot_tol: float = 1e-10,
+    maxit: int = 25,
+    maxhalve: int = 12,
+    hold_free: bool = False,
+    start: np.ndarray | None = None,
+    progress: Callable[[int], None] | None = None,
+) -> SweepResult:
+    """Move ``system`` through the driver values and solve every posture.
+
+    ``drivers`` maps joints (or ``"joint.var"``) to sequences of values of that
+    variable (radians or lengths), all of equal length.  Every posture is
+    solved by Newton-Raphson to ``tol`` internal units (book 6.7).  A model
+    whose mobility exceeds the number of drivers is an input error unless
+    ``hold_free`` keeps the free coordinates at their values.  An unreachable
+    posture ends the sweep with :attr:`SweepResult.message` set; every posture
+    solved before is kept.
+    """
+    if rates is not None or accels is not None:
+        from openimp.rates import sweep_rates
+
+        return sweep_rates(system, drivers, rates, accels, tol=tol, pivot_tol=pivot_tol,
+                           maxit=maxit, maxhalve=maxhalve, hold_free=hold_free, start=start)
+    K = system.K
+    dcols, dvals = _driver_columns(system, drivers)
+    nq = system.nq
+    sgc = np.zeros(nq, np.bool_)
+    sgc[dcols] = True
+    q = (system.q0 if start is None else system.to_internal(start)).copy()
+    check_drivers(system, q, sgc, dcols, pivot_tol, hold_free)
+    nsteps = dvals.shape[0]
+    Qout = np.zeros((nsteps, nq))
+    quality = np.zeros(nsteps)
+    rank = np.zeros(nsteps, np.int64)
+    fgc = np.zeros((nsteps, nq), np.bool_)
+    iters = np.zeros(nsteps, np.int64)
+    w = Work(K, nq)
+    done, status = sweep_kernel(K, q, sgc, dcols, np.ascontiguousarray(dvals), tol, pivot_tol,
+                                maxit, maxhalve, Qout, quality, rank, fgc, iters, *w.as_tuple())
+    names = [system.var_names[c] for c in dcols]
+    msg = ""
+    if done < nsteps:
+        msg = _failure_message(system, names, dvals, done, status)
+    return SweepResult(system, Qout[:done], quality[:done], rank[:done], fgc[:done],
+                       iters[:done], names, msg)
+
+
+def _failure_message(
+    system: System, names: list[str], dvals: np.ndarray, k: int, status: int
+) -> str:
+    scale = np.array([system.var_scale[system.var_index(n)] for n in names])
+    want = ", ".join(f"{n} = {v:.8g}" for n, v in zip(names, dvals[k] * scale))
+    why = {MAXITER: "Newton did not converge", DIVERGED: "Newton diverged"}.get(
+        status, f"status {status}")
+    last = f"step {k - 1}" if k > 0 else "the start posture"
+    return (
+        f"step {k}: posture not reachable ({want}): {why} even in steps of 1/4096; "
+        f"the mechanism cannot be assembled there (limit of travel or singular posture). "
+        f"The last good posture is {last}."
+    )
+
+
+def check_drivers(
+    system: System, q: np.ndarray, sgc: np.ndarray, dcols: np.ndarray, pivot_tol: float,
+    hold_free: bool,
+) -> tuple[int, float]:
+    """Check the drivers at posture ``q``: not determined by the constraints, enough of them.
+
+    Returns (rank, quality).  Raises InputError naming the offending driver or
+    the free coordinates that need drivers.
+    """
+    K = system.K
+    w = Work(K, system.nq)
+    err, rank, det = evaluate(K, q, sgc, pivot_tol, w.Phi, w.Tj, w.T0, w.A, w.Dh, w.J, w.E,
+                              w.T, w.prow, w.pcol)
+    nq = system.nq
+    if sgc_residual(w.T, sgc, w.prow, rank, nq) > 1e-6:
+        # find which driver is determined: the ones with a residual in an unpivoted row
+        used = np.zeros(w.T.shape[0], bool)
+        used[w.prow[:rank]] = True
+        bad = [system.var_names[c] for c in dcols if np.any(np.abs(w.T[~used, c]) > 1e-6)]
+        raise InputError(
+            f"over-specified motion: driver(s) {', '.join(bad)} are determined by the other "
+            f"drivers and the loop constraints (mobility is {nq - rank_full(system, q)}); "
+            "remove one of them or drive another joint"
+        )
+    piv = set(int(c) for c in w.pcol[:rank])
+    free = [c for c in range(nq) if c not in piv and not sgc[c]]
+    if free and not hold_free:
+        passive = passive_freedoms(system, q, w, rank, free)
+        active = [c for c in free if c not in passive]
+        if active:
+            f = nq - rank
+            raise InputError(
+                f"the mechanism has mobility {f} at its starting posture but only "
+                f"{len(dcols)} driver(s) were given; add drivers for "
+                f"{len(active)} of the free coordinates found: "
+                f"{', '.join(system.var_names[c] for c in active)} "
+                "(or pass hold_free=True to keep them at their values)"
+            )
+    return rank, det
+
+
+def rank_full(system: System, q: np.ndarray) -> int:
+    """Rank of the whole Jacobian at ``q`` (nothing specified)."""
+    K = system.K
+    w = Work(K, system.nq)
+    sgc = np.zeros(system.nq, np.bool_)
+    _, rank, _ = evaluate(K, q, sgc, 1e-10, w.Phi, w.Tj, w.T0, w.A, w.Dh, w.J, w.E, w.T,
+                          w.prow, w.pcol)
+    return int(rank)
+
+
+def passive_freedoms(system: System, q: np.ndarray, w: Work, rank: int, free: list[int]) -> set:
+    """Free coordinates that only spin one body between two ball joints.
+
+    Such an idle freedom (the coupler of an RSSR turning about the line of its
+    ball centres) moves no other body and no point of the mechanism off that
+    line, so a kinematic sweep may hold it.  A free coordinate is passive when
+    its first geometric derivative moves exactly one body, that body carries
+    exactly two joints, both spheric, and it carries no points.
+    """
+    K = system.K
+    nq = system.nq
+    cols = np.array(free, np.int64)
+    G = np.zeros((nq, len(free)))
+    derivative_matrix(w.T, w.prow, w.pcol, rank, cols, nq, G)
+    out: set[int] = set()
+    for j, c in enumerate(free):
+        moving = []
+        for b in range(len(system.bodies)):
+            # body twist: sum over its path of P(b,h) D_h dq_h
+            tw = np.zeros(6)
+            for h in np.flatnonzero(K.P[b]):
+                a0 = K.jq0[h]
+                for g in range(K.jnv[h]):
+                    tw += K.P[b, h] * w.Dh[a0 + g] * G[a0 + g, j]
+            if np.max(np.abs(tw)) > 1e-9:
+                moving.append(b)
+        if len(moving) != 1:
+            continue
+        b = moving[0]
+        incident = [h for h in range(len(system.joints)) if K.jb1[h] == b or K.jb2[h] == b]
+        if (
+            len(incident) == 2
+            and all(K.jcode[h] == SPHERE for h in incident)
+            and not np.any(K.ptbody == b)
+        ):
+            out.add(c)
+    return out
+
+
+def require_complete(result: SweepResult) -> SweepResult:
+    """Raise AnalysisError (carrying the partial result) if the sweep stopped early."""
+    if not result.complete:
+        raise AnalysisError(result.message, partial=result)
+    return result
