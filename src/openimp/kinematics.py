@@ -21,14 +21,14 @@ The kernels here work on the flat arrays of :class:`~openimp.system.System`
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from openimp._jit import njit
 from openimp.errors import AnalysisError, InputError
-from openimp.joints import MAXV, SPHERE, joint_phi, joint_Q
+from openimp.joints import MAXV, SPHERE, joint_dQ, joint_phi, joint_Q
 
 if TYPE_CHECKING:
     from openimp.system import System
@@ -439,7 +439,8 @@ def sweep_kernel(
     K: Any, q: np.ndarray, sgc: np.ndarray, dcols: np.ndarray, dvals: np.ndarray,
     tol: float, ptol: float, maxit: int, maxhalve: int,
     Qout: np.ndarray, quality: np.ndarray, rank_out: np.ndarray, fgc_out: np.ndarray,
-    iters_out: np.ndarray,
+    iters_out: np.ndarray, want_rates: bool, rd: np.ndarray, ad: np.ndarray,
+    QDout: np.ndarray, QDDout: np.ndarray, cons_out: np.ndarray,
     Phi: np.ndarray, Tj: np.ndarray, T0: np.ndarray, A: np.ndarray, Dh: np.ndarray,
     J: np.ndarray, E: np.ndarray, T: np.ndarray, prow: np.ndarray, pcol: np.ndarray,
     dq: np.ndarray,
@@ -450,14 +451,26 @@ def sweep_kernel(
     ``dcols`` go to ``dvals[k]``: the dependent variables are predicted to
     first order from the last elimination's by-products (-J11^-1 J13 dpsi),
     then corrected by Newton.  A step that fails is retried from the last
-    good posture in halves, down to 2^-maxhalve of it.  Returns (steps solved,
-    status of the first failure or OK).
+    good posture in halves, down to 2^-maxhalve of it.  With ``want_rates``
+    the joint velocities and accelerations for the driver rates ``rd[k]`` and
+    accelerations ``ad[k]`` come from the same final elimination
+    (:func:`joint_rates`).  Returns (steps solved, status of the first failure
+    or OK).
     """
     nq = q.shape[0]
     nd = dcols.shape[0]
     nsteps = dvals.shape[0]
+    nj = K.jcode.shape[0]
+    nb = K.order.shape[0]
     G = np.zeros((nq, nd))
     qtry = q.copy()
+    nr = nq if want_rates else 1
+    D4 = np.zeros((max(nr, 1), 4, 4))
+    B4 = np.zeros((max(nr, 1), MAXV, 4, 4))
+    omega = np.zeros((nb if want_rates else 1, 4, 4))
+    Kh = np.zeros((nj if want_rates else 1, 4, 4))
+    qd = np.zeros(nq)
+    qdd = np.zeros(nq)
     # the elimination at the start posture provides the first predictor
     st, it, rank, det = newton(K, q, sgc, tol, ptol, maxit, Phi, Tj, T0, A, Dh, J, E, T,
                                prow, pcol, dq)
@@ -501,12 +514,253 @@ def sweep_kernel(
         quality[k] = det
         rank_out[k] = rank
         iters_out[k] = total_it
+        if want_rates:
+            cons_out[k] = joint_rates(K, q, dcols, G, rd[k], ad[k], T, prow, pcol, rank, A,
+                                      D4, B4, omega, Kh, qd, qdd)
+            for c in range(nq):
+                QDout[k, c] = qd[c]
+                QDDout[k, c] = qdd[c]
         piv = np.zeros(nq, np.bool_)
         for t in range(rank):
             piv[pcol[t]] = True
         for c in range(nq):
             fgc_out[k, c] = (not piv[c]) and (not sgc[c])
     return nsteps, OK
+
+
+# =============================================================================
+# Velocities and accelerations (book ch 7, 8)
+# =============================================================================
+@njit
+def _screw6(M: np.ndarray, out: np.ndarray) -> None:
+    """Screw coordinates (6.41) of a 4x4 operator: [M14, M24, M34, M32, M13, M21]."""
+    out[0] = M[0, 3]
+    out[1] = M[1, 3]
+    out[2] = M[2, 3]
+    out[3] = M[2, 1]
+    out[4] = M[0, 2]
+    out[5] = M[1, 0]
+
+
+@njit
+def _similar(A: np.ndarray, M: np.ndarray, out: np.ndarray) -> None:
+    """out = A M A^-1 for a rigid A and an operator M with zero last row."""
+    Ai = np.empty((4, 4))
+    tmp = np.empty((4, 4))
+    inv4(A, Ai)
+    for i in range(4):
+        for j in range(4):
+            tmp[i, j] = (A[i, 0] * M[0, j] + A[i, 1] * M[1, j] + A[i, 2] * M[2, j]
+                         + A[i, 3] * M[3, j])
+    for i in range(4):
+        for j in range(4):
+            out[i, j] = (tmp[i, 0] * Ai[0, j] + tmp[i, 1] * Ai[1, j] + tmp[i, 2] * Ai[2, j]
+                         + tmp[i, 3] * Ai[3, j])
+
+
+@njit
+def _commutator_add(X: np.ndarray, Y: np.ndarray, f: float, out: np.ndarray) -> None:
+    """out += f (X Y - Y X) for 4x4 operators with zero last rows."""
+    for i in range(3):
+        for j in range(4):
+            s = 0.0
+            for k in range(3):
+                s += X[i, k] * Y[k, j] - Y[i, k] * X[k, j]
+            out[i, j] += f * s
+
+
+@njit
+def operators(K: Any, q: np.ndarray, A: np.ndarray, D4: np.ndarray, B4: np.ndarray) -> None:
+    """Global operators of every joint variable.
+
+    D4[c] = A_h Q_h^g A_h^-1 (6.14) and B4[c, i] = A_h Q_h^{g,i} A_h^-1 (8.24)
+    for the variables c = (h, g) and i over the same joint's variables.
+    """
+    Qb = np.empty((MAXV, 4, 4))
+    dQb = np.empty((MAXV, MAXV, 4, 4))
+    for h in range(K.jcode.shape[0]):
+        nv = K.jnv[h]
+        if nv == 0:
+            continue
+        a0 = K.jq0[h]
+        qh = q[a0:a0 + nv]
+        ch = K.const[K.jc0[h]:]
+        joint_Q(K.jcode[h], qh, ch, Qb)
+        joint_dQ(K.jcode[h], qh, ch, dQb)
+        for g in range(nv):
+            _similar(A[h], Qb[g], D4[a0 + g])
+            for i in range(nv):
+                _similar(A[h], dQb[g, i], B4[a0 + g, i])
+
+
+@njit
+def body_velocities(K: Any, qd: np.ndarray, D4: np.ndarray, omega: np.ndarray) -> None:
+    """Velocity operators omega_b = sum_h P(b,h) D_h qd_h (7.22), along the tree."""
+    for k in range(K.order.shape[0]):
+        b = K.order[k]
+        h = K.pj[b]
+        for i in range(4):
+            for j in range(4):
+                omega[b, i, j] = 0.0
+        if h < 0:
+            continue
+        pb = K.pb[b]
+        sg = float(K.psign[b])
+        a0 = K.jq0[h]
+        for i in range(3):
+            for j in range(4):
+                s = omega[pb, i, j]
+                for g in range(K.jnv[h]):
+                    s += sg * D4[a0 + g, i, j] * qd[a0 + g]
+                omega[b, i, j] = s
+
+
+@njit
+def drift_terms(
+    K: Any, qd: np.ndarray, D4: np.ndarray, B4: np.ndarray, omega: np.ndarray, Kh: np.ndarray
+) -> None:
+    """Kh = sum_g ([omega_h-, D_h^g] + sum_i B_h^{g,i} qd_i) qd_g per joint (8.26, 8.39)."""
+    for h in range(K.jcode.shape[0]):
+        for i in range(4):
+            for j in range(4):
+                Kh[h, i, j] = 0.0
+        nv = K.jnv[h]
+        a0 = K.jq0[h]
+        wm = omega[K.jb1[h]]
+        for g in range(nv):
+            f = qd[a0 + g]
+            if f == 0.0:
+                continue
+            _commutator_add(wm, D4[a0 + g], f, Kh[h])
+            for t in range(nv):
+                ft = f * qd[a0 + t]
+                if ft == 0.0:
+                    continue
+                for i in range(3):
+                    for j in range(4):
+                        Kh[h, i, j] += ft * B4[a0 + g, t, i, j]
+
+
+@njit
+def body_accelerations(
+    K: Any, qdd: np.ndarray, D4: np.ndarray, Kh: np.ndarray, alpha: np.ndarray
+) -> None:
+    """alpha_b = sum_h P(b,h) (D_h qdd_h + Kh_h) (8.52), along the tree."""
+    for k in range(K.order.shape[0]):
+        b = K.order[k]
+        h = K.pj[b]
+        for i in range(4):
+            for j in range(4):
+                alpha[b, i, j] = 0.0
+        if h < 0:
+            continue
+        pb = K.pb[b]
+        sg = float(K.psign[b])
+        a0 = K.jq0[h]
+        for i in range(3):
+            for j in range(4):
+                s = Kh[h, i, j]
+                for g in range(K.jnv[h]):
+                    s += D4[a0 + g, i, j] * qdd[a0 + g]
+                alpha[b, i, j] = alpha[pb, i, j] + sg * s
+
+
+@njit
+def joint_rates(
+    K: Any, q: np.ndarray, dcols: np.ndarray, G: np.ndarray, psid: np.ndarray,
+    psidd: np.ndarray, T: np.ndarray, prow: np.ndarray, pcol: np.ndarray, rank: int,
+    A: np.ndarray, D4: np.ndarray, B4: np.ndarray, omega: np.ndarray, Kh: np.ndarray,
+    qd: np.ndarray, qdd: np.ndarray,
+) -> float:
+    """Joint velocities (7.19) and accelerations (8.44) at a converged posture.
+
+    Uses the final elimination tableau ``T`` of the posture (no second
+    inversion): qd = G psid with G the first geometric derivatives, and
+    qdd_dep = J11^-1 C1 + G psidd with C the acceleration right-hand side
+    (8.40) built from the drift terms of every joint.  Free coordinates that
+    are not driven keep zero rate.  Returns the consistency residual (8.45).
+    """
+    nq = q.shape[0]
+    m = T.shape[0]
+    nd = dcols.shape[0]
+    for c in range(nq):
+        s = 0.0
+        for j in range(nd):
+            s += G[c, j] * psid[j]
+        qd[c] = s
+    operators(K, q, A, D4, B4)
+    body_velocities(K, qd, D4, omega)
+    drift_terms(K, qd, D4, B4, omega, Kh)
+    b = np.zeros(m)
+    six = np.empty(6)
+    C = np.empty((4, 4))
+    for i in range(K.L.shape[0]):
+        for r in range(4):
+            for t in range(4):
+                C[r, t] = 0.0
+        for h in range(K.jcode.shape[0]):
+            lih = K.L[i, h]
+            if lih != 0:
+                for r in range(3):
+                    for t in range(4):
+                        C[r, t] -= lih * Kh[h, r, t]
+        _screw6(C, six)
+        for k in range(6):
+            b[6 * i + k] = six[k]
+    r0 = 6 * K.L.shape[0]
+    for k in range(K.er.shape[0]):
+        e0 = K.er[k]
+        s = 0.0
+        for t in range(4):
+            s += qd[e0 + t] * qd[e0 + t]
+        b[r0 + k] = -2.0 * s
+    # qdd = J11^-1 b (pivot rows of the row-operation matrix) + G psidd
+    for c in range(nq):
+        s = 0.0
+        for j in range(nd):
+            s += G[c, j] * psidd[j]
+        qdd[c] = s
+    used = np.zeros(m, np.bool_)
+    for k in range(rank):
+        r = prow[k]
+        used[r] = True
+        s = 0.0
+        for t in range(m):
+            s += T[r, nq + t] * b[t]
+        qdd[pcol[k]] += s
+    worst = 0.0
+    for r in range(m):
+        if used[r]:
+            continue
+        s = 0.0
+        for t in range(m):
+            s += T[r, nq + t] * b[t]
+        if abs(s) > worst:
+            worst = abs(s)
+    return worst
+
+
+@njit
+def rates_of(
+    K: Any, Qs: np.ndarray, QDs: np.ndarray, QDDs: np.ndarray,
+    omega_out: np.ndarray, alpha_out: np.ndarray, T0_out: np.ndarray,
+) -> None:
+    """Body postures, velocity and acceleration operators for every step of a sweep."""
+    nj = K.jcode.shape[0]
+    nq = Qs.shape[1]
+    Phi = np.zeros((nj, 4, 4))
+    Tj = np.zeros((nj, 4, 4))
+    A = np.zeros((nj, 4, 4))
+    D4 = np.zeros((max(nq, 1), 4, 4))
+    B4 = np.zeros((max(nq, 1), MAXV, 4, 4))
+    Kh = np.zeros((nj, 4, 4))
+    for s in range(Qs.shape[0]):
+        joint_transforms(K, Qs[s], Phi, Tj)
+        postures(K, Tj, T0_out[s], A)
+        operators(K, Qs[s], A, D4, B4)
+        body_velocities(K, QDs[s], D4, omega_out[s])
+        drift_terms(K, QDs[s], D4, B4, omega_out[s], Kh)
+        body_accelerations(K, QDDs[s], D4, Kh, alpha_out[s])
 
 
 @njit
@@ -590,7 +844,140 @@ class SweepResult:
         self.drivers = drivers
         #: empty when every step was solved; otherwise why the sweep stopped
         self.message = message
+        #: times of the steps when the sweep was driven by motions of time
+        self.time: np.ndarray | None = None
         self._T0: np.ndarray | None = None
+        self._qd: np.ndarray | None = None
+        self._qdd: np.ndarray | None = None
+        self._omega: np.ndarray | None = None
+        self._alpha: np.ndarray | None = None
+        self.consistency: np.ndarray | None = None
+
+    # ----------------------------------------------------------------- rates
+    def _set_rates(self, qd: np.ndarray, qdd: np.ndarray, cons: np.ndarray) -> None:
+        self._qd = qd
+        self._qdd = qdd
+        self.consistency = cons
+
+    @property
+    def has_rates(self) -> bool:
+        """True when the sweep was given driver rates or accelerations."""
+        return self._qd is not None
+
+    def _need_rates(self) -> None:
+        if self._qd is None:
+            raise InputError(
+                "this sweep has no velocities: call sweep(drivers, rates=..., accels=...) "
+                "or sweep(motion=..., times=...)"
+            )
+
+    @property
+    def singular(self) -> np.ndarray:
+        """Steps at a singular posture, where rates are not determined by the drivers.
+
+        A step is singular when the rank of the Jacobian drops below its most
+        common value along the sweep (an extra instantaneous freedom appears,
+        as at a dead centre) or when the acceleration equations are
+        inconsistent there (8.45).
+        """
+        if self.nsteps == 0:
+            return np.zeros(0, bool)
+        typical = np.bincount(self.rank).argmax()
+        sing = self.rank < typical
+        if self.consistency is not None:
+            sing |= self.consistency > 1e-6
+        return sing
+
+    @property
+    def qd(self) -> np.ndarray:
+        """All joint velocities (steps x nq), model units per second."""
+        self._need_rates()
+        assert self._qd is not None
+        return self._qd * self.system.var_scale
+
+    @property
+    def qdd(self) -> np.ndarray:
+        """All joint accelerations (steps x nq), model units per second squared."""
+        self._need_rates()
+        assert self._qdd is not None
+        return self._qdd * self.system.var_scale
+
+    def joint_velocity(self, name: str) -> np.ndarray:
+        """Velocities of one joint's variables (steps x nvar)."""
+        return self.qd[:, self.system.joint_vars(name)]
+
+    def joint_acceleration(self, name: str) -> np.ndarray:
+        """Accelerations of one joint's variables (steps x nvar)."""
+        return self.qdd[:, self.system.joint_vars(name)]
+
+    def _body_rates(self) -> tuple[np.ndarray, np.ndarray]:
+        self._need_rates()
+        if self._omega is None:
+            nb = len(self.system.bodies)
+            om = np.zeros((self.nsteps, nb, 4, 4))
+            al = np.zeros((self.nsteps, nb, 4, 4))
+            T0 = np.zeros((self.nsteps, nb, 4, 4))
+            rates_of(self.system.K, np.ascontiguousarray(self._q), self._qd, self._qdd,
+                     om, al, T0)
+            Ls = self.system.length_scale
+            om[..., :3, 3] *= Ls
+            al[..., :3, 3] *= Ls
+            T0[..., :3, 3] *= Ls
+            self._omega, self._alpha, self._T0 = om, al, T0
+        assert self._alpha is not None
+        return self._omega, self._alpha
+
+    @staticmethod
+    def _axial(M: np.ndarray) -> np.ndarray:
+        return np.stack([M[..., 2, 1], M[..., 0, 2], M[..., 1, 0]], axis=-1)
+
+    def angular_velocity(self, body: str) -> np.ndarray:
+        """Angular velocity vector of a body, global components (steps x 3), rad/s."""
+        om, _ = self._body_rates()
+        return self._axial(om[:, self.system.body_index(body)])
+
+    def angular_acceleration(self, body: str) -> np.ndarray:
+        """Angular acceleration vector of a body, global (steps x 3), rad/s^2."""
+        _, al = self._body_rates()
+        return self._axial(al[:, self.system.body_index(body)])
+
+    def velocity_operator(self, body: str) -> np.ndarray:
+        """The 4x4 velocity operator omega_b of book (7.22) (steps x 4 x 4)."""
+        om, _ = self._body_rates()
+        return om[:, self.system.body_index(body)].copy()
+
+    def acceleration_operator(self, body: str) -> np.ndarray:
+        """The 4x4 operator alpha_b of book (8.52) (steps x 4 x 4)."""
+        _, al = self._body_rates()
+        return al[:, self.system.body_index(body)].copy()
+
+    def _point_rates(self, R: np.ndarray, b: int) -> tuple[np.ndarray, np.ndarray]:
+        om, al = self._body_rates()
+        Rh = np.concatenate([R, np.ones((R.shape[0], 1))], axis=1)
+        W = om[:, b]
+        v = np.einsum("sij,sj->si", W, Rh)
+        a = np.einsum("sij,sj->si", al[:, b] + W @ W, Rh)
+        return v[:, :3], a[:, :3]
+
+    def origin_velocity(self, body: str) -> np.ndarray:
+        """Velocity of the origin of a body's frame (steps x 3), global."""
+        b = self.system.body_index(body)
+        return self._point_rates(self.posture(body)[:, :3, 3], b)[0]
+
+    def origin_acceleration(self, body: str) -> np.ndarray:
+        """Acceleration of the origin of a body's frame (steps x 3), global."""
+        b = self.system.body_index(body)
+        return self._point_rates(self.posture(body)[:, :3, 3], b)[1]
+
+    def point_velocity(self, name: str) -> np.ndarray:
+        """Velocity of a point (steps x 3), global, model units per second (7.27)."""
+        b = int(self.system.K.ptbody[self.system.point_index(name)])
+        return self._point_rates(self.point(name), b)[0]
+
+    def point_acceleration(self, name: str) -> np.ndarray:
+        """Acceleration of a point (steps x 3), global (8.56)."""
+        b = int(self.system.K.ptbody[self.system.point_index(name)])
+        return self._point_rates(self.point(name), b)[1]
 
     @property
     def nsteps(self) -> int:
@@ -651,11 +1038,18 @@ class SweepResult:
         return np.einsum("sij,j->si", T, r)[:, :3]
 
     def to_table(self) -> dict[str, Any]:
-        """Columns: step, every joint variable, quality, mobility (model units)."""
+        """Columns: step (and time), joint variables (and their rates), quality, mobility."""
         cols: dict[str, Any] = {"step": np.arange(self.nsteps)}
+        if self.time is not None:
+            cols["time"] = self.time
         q = self.q
         for c, n in enumerate(self.system.var_names):
             cols[n] = q[:, c]
+        if self.has_rates:
+            qd, qdd = self.qd, self.qdd
+            for c, n in enumerate(self.system.var_names):
+                cols[n + "'"] = qd[:, c]
+                cols[n + "''"] = qdd[:, c]
         cols["quality"] = self.quality
         cols["mobility"] = self.mobility
         return cols
@@ -665,57 +1059,111 @@ class SweepResult:
         return f"SweepResult({self.nsteps} steps, {state})"
 
 
+def _rate_values(
+    system: System, dcols: np.ndarray, nsteps: int, given: Mapping[Any, Any] | None, what: str
+) -> np.ndarray:
+    """(steps x nd) driver rates or accelerations in internal units (0 where not given)."""
+    out = np.zeros((nsteps, dcols.size))
+    if not given:
+        return out
+    pos = {int(c): j for j, c in enumerate(dcols)}
+    for key, v in given.items():
+        c = system.var_index(key)
+        if c not in pos:
+            raise InputError(f"{what} given for {key!r}, which is not one of the drivers")
+        a = np.atleast_1d(np.asarray(v, dtype=float))
+        if a.size == 1:
+            a = np.full(nsteps, float(a[0]))
+        if a.shape != (nsteps,) or not np.all(np.isfinite(a)):
+            raise InputError(
+                f"{what} of {key!r}: give one finite value or {nsteps} values (one per step)"
+            )
+        out[:, pos[c]] = a / system.var_scale[c]
+    return out
+
+
 def sweep(
     system: System,
-    drivers: Mapping[Any, Sequence[float] | np.ndarray],
+    drivers: Mapping[Any, Sequence[float] | np.ndarray] | None = None,
     rates: Mapping[Any, Sequence[float] | np.ndarray] | None = None,
     accels: Mapping[Any, Sequence[float] | np.ndarray] | None = None,
     *,
+    motion: Mapping[Any, Any] | None = None,
+    times: Sequence[float] | np.ndarray | None = None,
     tol: float = 1e-10,
     pivot_tol: float = 1e-10,
     maxit: int = 25,
     maxhalve: int = 12,
     hold_free: bool = False,
     start: np.ndarray | None = None,
-    progress: Callable[[int], None] | None = None,
 ) -> SweepResult:
     """Move ``system`` through the driver values and solve every posture.
 
     ``drivers`` maps joints (or ``"joint.var"``) to sequences of values of that
-    variable (radians or lengths), all of equal length.  Every posture is
-    solved by Newton-Raphson to ``tol`` internal units (book 6.7).  A model
-    whose mobility exceeds the number of drivers is an input error unless
-    ``hold_free`` keeps the free coordinates at their values.  An unreachable
-    posture ends the sweep with :attr:`SweepResult.message` set; every posture
-    solved before is kept.
-    """
-    if rates is not None or accels is not None:
-        from openimp.rates import sweep_rates
+    variable (radians or lengths), all of equal length.  ``rates`` and
+    ``accels`` map the same keys to their first and second time derivatives
+    (one value per step, or one value for all); given either, the result
+    carries velocities and accelerations.  Instead of ``drivers``,
+    ``motion`` maps keys to functions of time (:mod:`openimp.motion`)
+    evaluated at ``times``.
 
-        return sweep_rates(system, drivers, rates, accels, tol=tol, pivot_tol=pivot_tol,
-                           maxit=maxit, maxhalve=maxhalve, hold_free=hold_free, start=start)
+    Every posture is solved by Newton-Raphson to ``tol`` internal units (book
+    6.7).  A model whose mobility exceeds the number of drivers is an input
+    error unless ``hold_free`` keeps the free coordinates at their values
+    (passive freedoms, such as the spin of an RSSR coupler, are held anyway).
+    An unreachable posture ends the sweep with :attr:`SweepResult.message`
+    set; every posture solved before is kept.
+    """
+    from openimp.motion import as_motion
+
+    tarr = None
+    if motion is not None:
+        if drivers is not None or rates is not None or accels is not None:
+            raise InputError("give either motion= (with times=) or drivers/rates/accels, not both")
+        if times is None:
+            raise InputError("motion= needs times=: the instants at which to solve")
+        tarr = np.asarray(times, dtype=float)
+        drivers, rates, accels = {}, {}, {}
+        for key, mo in motion.items():
+            p, v, a = as_motion(mo)(tarr)
+            drivers[key], rates[key], accels[key] = p, v, a
+    if drivers is None:
+        raise InputError("give drivers (joint -> values) or motion= with times=")
     K = system.K
     dcols, dvals = _driver_columns(system, drivers)
     nq = system.nq
+    nsteps = dvals.shape[0]
+    want = rates is not None or accels is not None
+    rd = _rate_values(system, dcols, nsteps, rates, "rate")
+    ad = _rate_values(system, dcols, nsteps, accels, "acceleration")
     sgc = np.zeros(nq, np.bool_)
     sgc[dcols] = True
     q = (system.q0 if start is None else system.to_internal(start)).copy()
     check_drivers(system, q, sgc, dcols, pivot_tol, hold_free)
-    nsteps = dvals.shape[0]
     Qout = np.zeros((nsteps, nq))
     quality = np.zeros(nsteps)
     rank = np.zeros(nsteps, np.int64)
     fgc = np.zeros((nsteps, nq), np.bool_)
     iters = np.zeros(nsteps, np.int64)
+    shape_r = (nsteps, nq) if want else (1, 1)
+    QD = np.zeros(shape_r)
+    QDD = np.zeros(shape_r)
+    cons = np.zeros(nsteps if want else 1)
     w = Work(K, nq)
-    done, status = sweep_kernel(K, q, sgc, dcols, np.ascontiguousarray(dvals), tol, pivot_tol,
-                                maxit, maxhalve, Qout, quality, rank, fgc, iters, *w.as_tuple())
+    done, status = sweep_kernel(
+        K, q, sgc, dcols, np.ascontiguousarray(dvals), tol, pivot_tol, maxit, maxhalve,
+        Qout, quality, rank, fgc, iters, want, rd, ad, QD, QDD, cons, *w.as_tuple())
     names = [system.var_names[c] for c in dcols]
     msg = ""
     if done < nsteps:
         msg = _failure_message(system, names, dvals, done, status)
-    return SweepResult(system, Qout[:done], quality[:done], rank[:done], fgc[:done],
-                       iters[:done], names, msg)
+    res = SweepResult(system, Qout[:done], quality[:done], rank[:done], fgc[:done],
+                      iters[:done], names, msg)
+    if want:
+        res._set_rates(QD[:done], QDD[:done], cons[:done])
+    if tarr is not None:
+        res.time = tarr[:done]
+    return res
 
 
 def _failure_message(
@@ -744,7 +1192,7 @@ def check_drivers(
     """
     K = system.K
     w = Work(K, system.nq)
-    err, rank, det = evaluate(K, q, sgc, pivot_tol, w.Phi, w.Tj, w.T0, w.A, w.Dh, w.J, w.E,
+    _err, rank, det = evaluate(K, q, sgc, pivot_tol, w.Phi, w.Tj, w.T0, w.A, w.Dh, w.J, w.E,
                               w.T, w.prow, w.pcol)
     nq = system.nq
     if sgc_residual(w.T, sgc, w.prow, rank, nq) > 1e-6:

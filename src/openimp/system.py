@@ -191,7 +191,7 @@ class System:
     # ------------------------------------------------------------- analyses
     def sweep(
         self,
-        drivers: Mapping[Any, Sequence[float] | np.ndarray],
+        drivers: Mapping[Any, Sequence[float] | np.ndarray] | None = None,
         rates: Mapping[Any, Sequence[float] | np.ndarray] | None = None,
         accels: Mapping[Any, Sequence[float] | np.ndarray] | None = None,
         **options: Any,
@@ -297,7 +297,7 @@ def compile_model(model: Model) -> System:
     K = KData(
         jcode=jcode, jnv=jnv, jq0=jq0, jc0=jc0,
         jb1=np.array(first, np.int64), jb2=np.array(second, np.int64),
-        S1=S1, S2=S2, S2inv=S2inv, const=np.array(consts + [0.0]),
+        S1=S1, S2=S2, S2inv=S2inv, const=np.array([*consts, 0.0]),
         order=np.asarray(topo.order, np.int64),
         pj=np.asarray(topo.parent_joint, np.int64),
         pb=np.asarray(topo.parent_body, np.int64),
