@@ -43,7 +43,7 @@ SGC_DETERMINED = 3
 # =============================================================================
 # 4x4 helpers
 # =============================================================================
-@njit
+@njit(inline="always")
 def mul4(a: np.ndarray, b: np.ndarray, out: np.ndarray) -> None:
     """out = a @ b for homogeneous 4x4 matrices (last row 0 0 0 1 assumed)."""
     for i in range(3):
@@ -56,7 +56,7 @@ def mul4(a: np.ndarray, b: np.ndarray, out: np.ndarray) -> None:
     out[3, 3] = 1.0
 
 
-@njit
+@njit(inline="always")
 def inv4(a: np.ndarray, out: np.ndarray) -> None:
     """Rigid inverse of a homogeneous 4x4 whose rotation part is orthogonal."""
     for i in range(3):
@@ -70,7 +70,7 @@ def inv4(a: np.ndarray, out: np.ndarray) -> None:
     out[3, 3] = 1.0
 
 
-@njit
+@njit(inline="always")
 def gen_inv4(a: np.ndarray, out: np.ndarray) -> None:
     """Inverse of a homogeneous 4x4 whose 3x3 block need not be orthogonal.
 
@@ -105,9 +105,11 @@ def gen_inv4(a: np.ndarray, out: np.ndarray) -> None:
 # Postures and loop equations
 # =============================================================================
 @njit
-def joint_transforms(K: Any, q: np.ndarray, Phi: np.ndarray, Tj: np.ndarray) -> None:
+def joint_transforms(
+    K: Any, q: np.ndarray, Phi: np.ndarray, Tj: np.ndarray, scr: np.ndarray
+) -> None:
     """Phi_h and T_{h-,h+} = S_{h-,h} Phi_h S_{h+,h}^-1 (5.4) of every joint."""
-    tmp = np.empty((4, 4))
+    tmp = scr[0]
     for h in range(K.jcode.shape[0]):
         a = K.jq0[h]
         c0 = K.jc0[h]
@@ -117,9 +119,9 @@ def joint_transforms(K: Any, q: np.ndarray, Phi: np.ndarray, Tj: np.ndarray) -> 
 
 
 @njit
-def postures(K: Any, Tj: np.ndarray, T0: np.ndarray, A: np.ndarray) -> None:
+def postures(K: Any, Tj: np.ndarray, T0: np.ndarray, A: np.ndarray, scr: np.ndarray) -> None:
     """T_0b of every body along the tree, and A_h = T_{0h-} S_{h-,h} of every joint."""
-    tmp = np.empty((4, 4))
+    tmp = scr[0]
     for k in range(K.order.shape[0]):
         b = K.order[k]
         h = K.pj[b]
@@ -135,9 +137,12 @@ def postures(K: Any, Tj: np.ndarray, T0: np.ndarray, A: np.ndarray) -> None:
 
 
 @njit
-def screw_columns(K: Any, q: np.ndarray, A: np.ndarray, Dh: np.ndarray) -> None:
+def screw_columns(
+    K: Any, q: np.ndarray, A: np.ndarray, Dh: np.ndarray, Qb: np.ndarray, scr: np.ndarray
+) -> None:
     """Screw coordinates (6.41) of D = A Q A^-1 for every joint variable, into Dh[nq, 6]."""
-    Qb = np.empty((MAXV, 4, 4))
+    RM = scr[1]
+    Mp = scr[2]
     for h in range(K.jcode.shape[0]):
         nv = K.jnv[h]
         if nv == 0:
@@ -148,11 +153,9 @@ def screw_columns(K: Any, q: np.ndarray, A: np.ndarray, Dh: np.ndarray) -> None:
         for g in range(nv):
             Qg = Qb[g]
             # M' = R M R^T (only the three skew entries are needed)
-            RM = np.empty((3, 3))
             for i in range(3):
                 for j in range(3):
                     RM[i, j] = Ah[i, 0] * Qg[0, j] + Ah[i, 1] * Qg[1, j] + Ah[i, 2] * Qg[2, j]
-            Mp = np.empty((3, 3))
             for i in range(3):
                 for j in range(3):
                     Mp[i, j] = RM[i, 0] * Ah[j, 0] + RM[i, 1] * Ah[j, 1] + RM[i, 2] * Ah[j, 2]
@@ -171,7 +174,7 @@ def screw_columns(K: Any, q: np.ndarray, A: np.ndarray, Dh: np.ndarray) -> None:
 @njit
 def loop_equations(
     K: Any, q: np.ndarray, T0: np.ndarray, A: np.ndarray, Tj: np.ndarray,
-    Dh: np.ndarray, J: np.ndarray, E: np.ndarray,
+    Dh: np.ndarray, J: np.ndarray, E: np.ndarray, Qb: np.ndarray, scr: np.ndarray,
 ) -> float:
     """Jacobian J and right-hand side E of J dq = E (6.45); returns max |E|.
 
@@ -187,10 +190,10 @@ def loop_equations(
     for r in range(m):
         for c in range(nq):
             J[r, c] = 0.0
-    screw_columns(K, q, A, Dh)
-    F = np.empty((4, 4))
-    tmp = np.empty((4, 4))
-    inv_d = np.empty((4, 4))
+    screw_columns(K, q, A, Dh, Qb, scr)
+    F = scr[3]
+    tmp = scr[4]
+    inv_d = scr[5]
     err = 0.0
     for i in range(nl):
         ch = K.chord[i]
@@ -233,7 +236,7 @@ def loop_equations(
 @njit
 def gauss_jordan(
     J: np.ndarray, E: np.ndarray, sgc: np.ndarray, tol: float,
-    T: np.ndarray, prow: np.ndarray, pcol: np.ndarray,
+    T: np.ndarray, prow: np.ndarray, pcol: np.ndarray, used: np.ndarray,
 ) -> tuple[int, float]:
     """Restricted complete-pivoting Gauss-Jordan elimination (book 6.5.3).
 
@@ -242,7 +245,8 @@ def gauss_jordan(
     the by-products J11^-1 J12 (free columns) and J11^-1 J13 (specified
     columns); in the next m columns J11^-1 (pivot rows) and -J21 J11^-1
     (other rows); in the last the solution.  Columns with ``sgc`` true are
-    never pivoted.  Returns the rank and the quality index |det J11|.
+    never pivoted.  ``used`` is boolean scratch of length m + n.  Returns the
+    rank and the quality index |det J11|.
     """
     m = J.shape[0]
     n = J.shape[1]
@@ -254,8 +258,10 @@ def gauss_jordan(
             T[r, c] = 0.0
         T[r, n + r] = 1.0
         T[r, n + m] = E[r]
-    rowused = np.zeros(m, np.bool_)
-    colused = np.zeros(n, np.bool_)
+    rowused = used[:m]
+    colused = used[m:m + n]
+    rowused[:] = False
+    colused[:] = False
     det = 1.0
     rank = 0
     for k in range(min(m, n)):
@@ -349,11 +355,19 @@ class Work:
         self.prow = np.zeros(max(m, 1), np.int64)
         self.pcol = np.zeros(max(m, 1), np.int64)
         self.dq = np.zeros(nq)
+        self.Qb = np.zeros((MAXV, 4, 4))
+        self.scr = np.zeros((8, 4, 4))
+        self.used = np.zeros(m + nq + 1, np.bool_)
 
     def as_tuple(self) -> tuple[np.ndarray, ...]:
         """The arrays in the order the kernels take them."""
         return (self.Phi, self.Tj, self.T0, self.A, self.Dh, self.J, self.E, self.T,
-                self.prow, self.pcol, self.dq)
+                self.prow, self.pcol, self.dq, self.Qb, self.scr, self.used)
+
+    def eval_tuple(self) -> tuple[np.ndarray, ...]:
+        """The arrays :func:`evaluate` takes."""
+        return (self.Phi, self.Tj, self.T0, self.A, self.Dh, self.J, self.E, self.T,
+                self.prow, self.pcol, self.Qb, self.scr, self.used)
 
 
 @njit
@@ -361,12 +375,13 @@ def evaluate(
     K: Any, q: np.ndarray, sgc: np.ndarray, ptol: float,
     Phi: np.ndarray, Tj: np.ndarray, T0: np.ndarray, A: np.ndarray, Dh: np.ndarray,
     J: np.ndarray, E: np.ndarray, T: np.ndarray, prow: np.ndarray, pcol: np.ndarray,
+    Qb: np.ndarray, scr: np.ndarray, used: np.ndarray,
 ) -> tuple[float, int, float]:
     """Postures, loop equations and their elimination at ``q``: (max|E|, rank, quality)."""
-    joint_transforms(K, q, Phi, Tj)
-    postures(K, Tj, T0, A)
-    err = loop_equations(K, q, T0, A, Tj, Dh, J, E)
-    rank, det = gauss_jordan(J, E, sgc, ptol, T, prow, pcol)
+    joint_transforms(K, q, Phi, Tj, scr)
+    postures(K, Tj, T0, A, scr)
+    err = loop_equations(K, q, T0, A, Tj, Dh, J, E, Qb, scr)
+    rank, det = gauss_jordan(J, E, sgc, ptol, T, prow, pcol, used)
     return err, rank, det
 
 
@@ -375,7 +390,7 @@ def newton(
     K: Any, q: np.ndarray, sgc: np.ndarray, tol: float, ptol: float, maxit: int,
     Phi: np.ndarray, Tj: np.ndarray, T0: np.ndarray, A: np.ndarray, Dh: np.ndarray,
     J: np.ndarray, E: np.ndarray, T: np.ndarray, prow: np.ndarray, pcol: np.ndarray,
-    dq: np.ndarray,
+    dq: np.ndarray, Qb: np.ndarray, scr: np.ndarray, used: np.ndarray,
 ) -> tuple[int, int, int, float]:
     """Newton-Raphson on the loop equations (book 6.5); q is updated in place.
 
@@ -390,7 +405,8 @@ def newton(
     rank = 0
     det = 0.0
     for it in range(maxit):
-        err, rank, det = evaluate(K, q, sgc, ptol, Phi, Tj, T0, A, Dh, J, E, T, prow, pcol)
+        err, rank, det = evaluate(K, q, sgc, ptol, Phi, Tj, T0, A, Dh, J, E, T, prow, pcol,
+                                  Qb, scr, used)
         step = 0.0
         for c in range(nq):
             dq[c] = 0.0
@@ -443,7 +459,7 @@ def sweep_kernel(
     QDout: np.ndarray, QDDout: np.ndarray, cons_out: np.ndarray,
     Phi: np.ndarray, Tj: np.ndarray, T0: np.ndarray, A: np.ndarray, Dh: np.ndarray,
     J: np.ndarray, E: np.ndarray, T: np.ndarray, prow: np.ndarray, pcol: np.ndarray,
-    dq: np.ndarray,
+    dq: np.ndarray, Qb: np.ndarray, scr: np.ndarray, used: np.ndarray,
 ) -> tuple[int, int]:
     """Solve every posture of a sweep (book 6.5, 6.9).
 
@@ -473,10 +489,16 @@ def sweep_kernel(
     qdd = np.zeros(nq)
     # the elimination at the start posture provides the first predictor
     st, it, rank, det = newton(K, q, sgc, tol, ptol, maxit, Phi, Tj, T0, A, Dh, J, E, T,
-                               prow, pcol, dq)
+                               prow, pcol, dq, Qb, scr, used)
     if st != OK:
         return 0, st
     derivative_matrix(T, prow, pcol, rank, dcols, nq, G)
+    # second-order predictor: the change of G over the last step estimates
+    # d2q/dpsi2 along the direction of motion (uniform sweeps keep that direction)
+    Gp = np.zeros((nq, nd))
+    dprev = np.zeros(nd)
+    dnew = np.zeros(nd)
+    has_prev = False
     for k in range(nsteps):
         frac = 1.0
         done = False
@@ -486,21 +508,44 @@ def sweep_kernel(
             for c in range(nq):
                 qtry[c] = q[c]
             for j in range(nd):
-                d = (dvals[k, j] - q[dcols[j]]) * frac
+                dnew[j] = (dvals[k, j] - q[dcols[j]]) * frac
                 for r in range(nq):
-                    qtry[r] += G[r, j] * d
+                    qtry[r] += G[r, j] * dnew[j]
+            if has_prev:
+                num = 0.0
+                den = 0.0
+                for j in range(nd):
+                    num += dnew[j] * dprev[j]
+                    den += dprev[j] * dprev[j]
+                ratio = num / den if den > 0.0 else 0.0
+                off = 0.0
+                nrm = 0.0
+                for j in range(nd):
+                    off += (dnew[j] - ratio * dprev[j]) ** 2
+                    nrm += dnew[j] * dnew[j]
+                if off <= 1e-18 * nrm:
+                    for j in range(nd):
+                        f = 0.5 * ratio * dnew[j]
+                        for r in range(nq):
+                            qtry[r] += f * (G[r, j] - Gp[r, j])
             normalise_er(K, qtry)
             last = frac == 1.0
             if last:
                 for j in range(nd):
                     qtry[dcols[j]] = dvals[k, j]
             st, it, rank, det = newton(K, qtry, sgc, tol, ptol, maxit, Phi, Tj, T0, A, Dh,
-                                       J, E, T, prow, pcol, dq)
+                                       J, E, T, prow, pcol, dq, Qb, scr, used)
             total_it += it
             if st == OK:
+                for j in range(nd):
+                    dprev[j] = qtry[dcols[j]] - q[dcols[j]]
                 for c in range(nq):
                     q[c] = qtry[c]
+                for r in range(nq):
+                    for j in range(nd):
+                        Gp[r, j] = G[r, j]
                 derivative_matrix(T, prow, pcol, rank, dcols, nq, G)
+                has_prev = True
                 if last:
                     done = True
                 else:
@@ -520,11 +565,10 @@ def sweep_kernel(
             for c in range(nq):
                 QDout[k, c] = qd[c]
                 QDDout[k, c] = qdd[c]
-        piv = np.zeros(nq, np.bool_)
-        for t in range(rank):
-            piv[pcol[t]] = True
         for c in range(nq):
-            fgc_out[k, c] = (not piv[c]) and (not sgc[c])
+            fgc_out[k, c] = not sgc[c]
+        for t in range(rank):
+            fgc_out[k, pcol[t]] = False
     return nsteps, OK
 
 
@@ -754,9 +798,10 @@ def rates_of(
     D4 = np.zeros((max(nq, 1), 4, 4))
     B4 = np.zeros((max(nq, 1), MAXV, 4, 4))
     Kh = np.zeros((nj, 4, 4))
+    scr = np.zeros((8, 4, 4))
     for s in range(Qs.shape[0]):
-        joint_transforms(K, Qs[s], Phi, Tj)
-        postures(K, Tj, T0_out[s], A)
+        joint_transforms(K, Qs[s], Phi, Tj, scr)
+        postures(K, Tj, T0_out[s], A, scr)
         operators(K, Qs[s], A, D4, B4)
         body_velocities(K, QDs[s], D4, omega_out[s])
         drift_terms(K, QDs[s], D4, B4, omega_out[s], Kh)
@@ -781,9 +826,10 @@ def postures_of(K: Any, Qs: np.ndarray, out: np.ndarray) -> None:
     Phi = np.zeros((nj, 4, 4))
     Tj = np.zeros((nj, 4, 4))
     A = np.zeros((nj, 4, 4))
+    scr = np.zeros((8, 4, 4))
     for s in range(Qs.shape[0]):
-        joint_transforms(K, Qs[s], Phi, Tj)
-        postures(K, Tj, out[s], A)
+        joint_transforms(K, Qs[s], Phi, Tj, scr)
+        postures(K, Tj, out[s], A, scr)
 
 
 # =============================================================================
@@ -1192,8 +1238,7 @@ def check_drivers(
     """
     K = system.K
     w = Work(K, system.nq)
-    _err, rank, det = evaluate(K, q, sgc, pivot_tol, w.Phi, w.Tj, w.T0, w.A, w.Dh, w.J, w.E,
-                              w.T, w.prow, w.pcol)
+    _err, rank, det = evaluate(K, q, sgc, pivot_tol, *w.eval_tuple())
     nq = system.nq
     if sgc_residual(w.T, sgc, w.prow, rank, nq) > 1e-6:
         # find which driver is determined: the ones with a residual in an unpivoted row
@@ -1227,8 +1272,7 @@ def rank_full(system: System, q: np.ndarray) -> int:
     K = system.K
     w = Work(K, system.nq)
     sgc = np.zeros(system.nq, np.bool_)
-    _, rank, _ = evaluate(K, q, sgc, 1e-10, w.Phi, w.Tj, w.T0, w.A, w.Dh, w.J, w.E, w.T,
-                          w.prow, w.pcol)
+    _, rank, _ = evaluate(K, q, sgc, 1e-10, *w.eval_tuple())
     return int(rank)
 
 

@@ -1,0 +1,166 @@
+"""Result tables and their export: IMP-style listings, JSON and CSV.
+
+A :class:`Table` is what a request produces: the request that asked for it
+(``LIST POSITION``), the item (``joint JT5``), column names with units and
+rows of numbers in the units the listing prints (degrees where IMP prints
+degrees).  :class:`Run` gathers the tables of one EXECUTE.  Writers produce
+the JSON schema of DESIGN.md and one CSV file per table; files are written
+whole or not at all (to a temporary name, then renamed).
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import os
+import re
+import tempfile
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+
+@dataclass
+class Table:
+    """One listed table: request, item, columns, units and rows."""
+
+    request: str
+    item: str
+    columns: list[str]
+    units: list[str]
+    rows: np.ndarray
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dict (NaN written as null)."""
+        rows = [[None if not math.isfinite(v) else float(v) for v in r] for r in self.rows]
+        return {"request": self.request, "item": self.item, "columns": list(self.columns),
+                "units": list(self.units), "rows": rows}
+
+
+@dataclass
+class Run:
+    """The output of one EXECUTE: its title, mode, tables and messages."""
+
+    title: str
+    mode: str
+    tables: list[Table] = field(default_factory=list)
+    messages: list[str] = field(default_factory=list)
+    #: set when the analysis stopped early (what was computed is still listed)
+    failure: str = ""
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dict of the run."""
+        d: dict[str, Any] = {"title": self.title, "mode": self.mode,
+                             "tables": [t.to_dict() for t in self.tables]}
+        if self.messages:
+            d["messages"] = list(self.messages)
+        if self.failure:
+            d["failure"] = self.failure
+        return d
+
+
+def _atomic_write(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` whole or not at all."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
+    try:
+        with os.fdopen(fd, "w", newline="") as f:
+            f.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def write_json(path: str | os.PathLike[str], runs: Sequence[Run]) -> None:
+    """Write every run's tables in the DESIGN.md JSON schema, full precision."""
+    doc = {"runs": [r.to_dict() for r in runs]}
+    _atomic_write(Path(path), json.dumps(doc, allow_nan=False) + "\n")
+
+
+def _slug(s: str) -> str:
+    return re.sub(r"[^A-Za-z0-9]+", "_", s).strip("_").lower() or "table"
+
+
+def write_csv(directory: str | os.PathLike[str], runs: Sequence[Run]) -> list[Path]:
+    """One CSV file per table (``run<k>_<request>_<item>.csv``); returns the paths."""
+    out = Path(directory)
+    paths: list[Path] = []
+    for k, run in enumerate(runs, start=1):
+        for t in run.tables:
+            p = out / f"run{k}_{_slug(t.request)}_{_slug(t.item)}.csv"
+            n = 2
+            while p in paths:
+                p = out / f"run{k}_{_slug(t.request)}_{_slug(t.item)}_{n}.csv"
+                n += 1
+            from io import StringIO
+
+            buf = StringIO()
+            w = csv.writer(buf)
+            w.writerow([f"{c} [{u}]" if u else c for c, u in zip(t.columns, t.units)])
+            for r in t.rows:
+                w.writerow([repr(float(v)) for v in r])
+            _atomic_write(p, buf.getvalue())
+            paths.append(p)
+    return paths
+
+
+def banner(title: str, mode: str, when: str) -> str:
+    """IMP's run banner: a 72-column box with the title, mode and date."""
+    width = 72
+    lines = ["*" * width]
+    for text in ("", title, "", f"{mode} Mode", f"on {when}", ""):
+        lines.append("*" + text.center(width - 2) + "*")
+    lines.append("*" * width)
+    return "\n".join(lines)
+
+
+def format_listing(t: Table) -> str:
+    """IMP-style listing of a table: header, column titles, one row per step.
+
+    Time prints as %.6f and values as %.3f (IMP's LIST format, reference 2.3);
+    values IMP cannot determine print as ????.
+    """
+    head = f"Listing of {t.request.split(maxsplit=1)[-1].lower()} of {t.item}"
+    if t.request.upper().startswith("LIST FORCE"):
+        head = f"Listing of force in {t.item}"
+    titles = [f"{c}" + (f" ({u})" if u else "") for c, u in zip(t.columns, t.units)]
+    widths = [max(12, len(s) + 2) for s in titles]
+    lines = [head, "".join(s.rjust(w) for s, w in zip(titles, widths))]
+    for r in t.rows:
+        cells = []
+        for j, v in enumerate(r):
+            if not math.isfinite(v):
+                s = "????"
+            elif j == 0 and t.columns[0].lower() in ("time", "step"):
+                s = f"{v:.6f}"
+            else:
+                s = f"{v:.3f}"
+            cells.append(s.rjust(widths[j]))
+        lines.append("".join(cells))
+    return "\n".join(lines)
+
+
+def format_run(run: Run, when: str) -> str:
+    """The whole listing of a run: banner, messages, every table."""
+    parts = [banner(run.title, run.mode, when)]
+    parts.extend(f"*** {m} ***" for m in run.messages)
+    for t in run.tables:
+        parts.append("")
+        parts.append(format_listing(t))
+    if run.failure:
+        parts.append("")
+        parts.append(f"*** {run.failure} ***")
+    return "\n".join(parts) + "\n"
+
+
+def tables_from_columns(request: str, item: str, names: Iterable[str], units: Iterable[str],
+                        cols: Iterable[np.ndarray]) -> Table:
+    """A table from parallel column arrays."""
+    arr = np.column_stack([np.asarray(c, dtype=float) for c in cols])
+    return Table(request, item, list(names), list(units), arr)
