@@ -15,4 +15,12 @@ from openimp.model import Model
 
 __version__ = "0.1.0"
 
-__all__ = ["AnalysisError", "InputError", "Model", "OpenIMPError", "__version__"]
+
+def load(path: str):  # noqa: ANN201 - returns openimp.imp.interp.Deck (imported lazily)
+    """Read an IMP deck: the model it builds plus its requests (see openimp.imp.interp.load)."""
+    from openimp.imp.interp import load as _load
+
+    return _load(path)
+
+
+__all__ = ["AnalysisError", "InputError", "Model", "OpenIMPError", "__version__", "load"]

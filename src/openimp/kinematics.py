@@ -237,7 +237,7 @@ def loop_equations(
 def gauss_jordan(
     J: np.ndarray, E: np.ndarray, sgc: np.ndarray, tol: float,
     T: np.ndarray, prow: np.ndarray, pcol: np.ndarray, used: np.ndarray,
-) -> tuple[int, float]:
+) -> tuple[int, float, float]:
     """Restricted complete-pivoting Gauss-Jordan elimination (book 6.5.3).
 
     The tableau ``T`` (m x (n + m + 1)) receives [J | I | E] reduced in place:
@@ -246,7 +246,8 @@ def gauss_jordan(
     columns); in the next m columns J11^-1 (pivot rows) and -J21 J11^-1
     (other rows); in the last the solution.  Columns with ``sgc`` true are
     never pivoted.  ``used`` is boolean scratch of length m + n.  Returns the
-    rank and the quality index |det J11|.
+    rank, the quality index |det J11| and the largest entry left unpivoted
+    (below ``tol``; 0 when the elimination ran out of rows or columns).
     """
     m = J.shape[0]
     n = J.shape[1]
@@ -264,6 +265,7 @@ def gauss_jordan(
     colused[:] = False
     det = 1.0
     rank = 0
+    rest = 0.0
     for k in range(min(m, n)):
         best = 0.0
         br = -1
@@ -280,6 +282,7 @@ def gauss_jordan(
                     br = r
                     bc = c
         if best <= tol:
+            rest = best
             break
         rowused[br] = True
         colused[bc] = True
@@ -300,7 +303,7 @@ def gauss_jordan(
                 for c in range(w):
                     T[r, c] -= f * T[br, c]
                 T[r, bc] = 0.0
-    return rank, det
+    return rank, det, rest
 
 
 @njit
@@ -376,13 +379,16 @@ def evaluate(
     Phi: np.ndarray, Tj: np.ndarray, T0: np.ndarray, A: np.ndarray, Dh: np.ndarray,
     J: np.ndarray, E: np.ndarray, T: np.ndarray, prow: np.ndarray, pcol: np.ndarray,
     Qb: np.ndarray, scr: np.ndarray, used: np.ndarray,
-) -> tuple[float, int, float]:
-    """Postures, loop equations and their elimination at ``q``: (max|E|, rank, quality)."""
+) -> tuple[float, int, float, float]:
+    """Postures, loop equations and their elimination at ``q``.
+
+    Returns (max|E|, rank, quality, largest unpivoted entry).
+    """
     joint_transforms(K, q, Phi, Tj, scr)
     postures(K, Tj, T0, A, scr)
     err = loop_equations(K, q, T0, A, Tj, Dh, J, E, Qb, scr)
-    rank, det = gauss_jordan(J, E, sgc, ptol, T, prow, pcol, used)
-    return err, rank, det
+    rank, det, rest = gauss_jordan(J, E, sgc, ptol, T, prow, pcol, used)
+    return err, rank, det, rest
 
 
 @njit
@@ -391,11 +397,12 @@ def newton(
     Phi: np.ndarray, Tj: np.ndarray, T0: np.ndarray, A: np.ndarray, Dh: np.ndarray,
     J: np.ndarray, E: np.ndarray, T: np.ndarray, prow: np.ndarray, pcol: np.ndarray,
     dq: np.ndarray, Qb: np.ndarray, scr: np.ndarray, used: np.ndarray,
-) -> tuple[int, int, int, float]:
+) -> tuple[int, int, int, float, float]:
     """Newton-Raphson on the loop equations (book 6.5); q is updated in place.
 
     Converged when every |E| and every correction is below ``tol`` (internal
-    units).  Returns (status, iterations, rank, quality); the tableau in ``T``
+    units).  Returns (status, iterations, rank, quality, largest unpivoted
+    entry); the tableau in ``T``
     belongs to the final posture, so its by-products serve the derivatives.
     """
     nq = q.shape[0]
@@ -404,8 +411,9 @@ def newton(
     grow = 0
     rank = 0
     det = 0.0
+    rest = 0.0
     for it in range(maxit):
-        err, rank, det = evaluate(K, q, sgc, ptol, Phi, Tj, T0, A, Dh, J, E, T, prow, pcol,
+        err, rank, det, rest = evaluate(K, q, sgc, ptol, Phi, Tj, T0, A, Dh, J, E, T, prow, pcol,
                                   Qb, scr, used)
         step = 0.0
         for c in range(nq):
@@ -418,18 +426,18 @@ def newton(
         if err < tol and step < tol:
             for c in range(nq):
                 q[c] += dq[c]
-            return OK, it + 1, rank, det
+            return OK, it + 1, rank, det, rest
         if err > prev:
             grow += 1
             if grow >= 3 or err > 1e3 * prev:
-                return DIVERGED, it + 1, rank, det
+                return DIVERGED, it + 1, rank, det, rest
         prev = err
         if step > 2.0:  # a correction beyond ~2 rad / 2 model sizes: not "nearby"
-            return DIVERGED, it + 1, rank, det
+            return DIVERGED, it + 1, rank, det, rest
         for c in range(nq):
             q[c] += dq[c]
         normalise_er(K, q)
-    return MAXITER, maxit, rank, det
+    return MAXITER, maxit, rank, det, rest
 
 
 @njit
@@ -488,10 +496,14 @@ def sweep_kernel(
     qd = np.zeros(nq)
     qdd = np.zeros(nq)
     # the elimination at the start posture provides the first predictor
-    st, it, rank, det = newton(K, q, sgc, tol, ptol, maxit, Phi, Tj, T0, A, Dh, J, E, T,
-                               prow, pcol, dq, Qb, scr, used)
+    st, it, rank, det, rest = newton(K, q, sgc, tol, ptol, maxit, Phi, Tj, T0, A, Dh, J, E,
+                                     T, prow, pcol, dq, Qb, scr, used)
     if st != OK:
         return 0, st
+    rank_ref = rank
+    isdriver = np.zeros(nq, np.bool_)
+    for j in range(nd):
+        isdriver[dcols[j]] = True
     derivative_matrix(T, prow, pcol, rank, dcols, nq, G)
     # second-order predictor: the change of G over the last step estimates
     # d2q/dpsi2 along the direction of motion (uniform sweeps keep that direction)
@@ -533,8 +545,8 @@ def sweep_kernel(
             if last:
                 for j in range(nd):
                     qtry[dcols[j]] = dvals[k, j]
-            st, it, rank, det = newton(K, qtry, sgc, tol, ptol, maxit, Phi, Tj, T0, A, Dh,
-                                       J, E, T, prow, pcol, dq, Qb, scr, used)
+            st, it, rank, det, rest = newton(K, qtry, sgc, tol, ptol, maxit, Phi, Tj, T0, A,
+                                             Dh, J, E, T, prow, pcol, dq, Qb, scr, used)
             total_it += it
             if st == OK:
                 for j in range(nd):
@@ -556,6 +568,13 @@ def sweep_kernel(
                     return k, st
         for c in range(nq):
             Qout[k, c] = q[c]
+        # (6.53) |det J11| over the regular pivots; where the rank drops (a dead
+        # centre) the missing pivots are the tiny entries left, so the index
+        # collapses toward zero instead of jumping to a smaller J11's value
+        if rank > rank_ref:
+            rank_ref = rank
+        for t in range(rank_ref - rank):
+            det *= rest
         quality[k] = det
         rank_out[k] = rank
         iters_out[k] = total_it
@@ -566,7 +585,7 @@ def sweep_kernel(
                 QDout[k, c] = qd[c]
                 QDDout[k, c] = qdd[c]
         for c in range(nq):
-            fgc_out[k, c] = not sgc[c]
+            fgc_out[k, c] = not isdriver[c]
         for t in range(rank):
             fgc_out[k, pcol[t]] = False
     return nsteps, OK
@@ -853,7 +872,12 @@ def _driver_columns(
             )
         if c in cols:
             raise InputError(f"driver {key!r} is given twice")
-        a = np.atleast_1d(np.asarray(v, dtype=float))
+        try:
+            a = np.atleast_1d(np.asarray(v, dtype=float))
+        except (TypeError, ValueError):
+            raise InputError(
+                f"driver {key!r}: its values must be numbers, got {v!r:.60}"
+            ) from None
         if a.ndim != 1 or a.size == 0 or not np.all(np.isfinite(a)):
             raise InputError(f"driver {key!r}: give a non-empty sequence of finite numbers")
         if nsteps is None:
@@ -1117,7 +1141,10 @@ def _rate_values(
         c = system.var_index(key)
         if c not in pos:
             raise InputError(f"{what} given for {key!r}, which is not one of the drivers")
-        a = np.atleast_1d(np.asarray(v, dtype=float))
+        try:
+            a = np.atleast_1d(np.asarray(v, dtype=float))
+        except (TypeError, ValueError):
+            raise InputError(f"{what} of {key!r} must be numbers, got {v!r:.60}") from None
         if a.size == 1:
             a = np.full(nsteps, float(a[0]))
         if a.shape != (nsteps,) or not np.all(np.isfinite(a)):
@@ -1184,8 +1211,12 @@ def sweep(
     ad = _rate_values(system, dcols, nsteps, accels, "acceleration")
     sgc = np.zeros(nq, np.bool_)
     sgc[dcols] = True
-    q = (system.q0 if start is None else system.to_internal(start)).copy()
-    check_drivers(system, q, sgc, dcols, pivot_tol, hold_free)
+    q = _start_posture(system, start)
+    held = check_drivers(system, q, sgc, dcols, pivot_tol, hold_free)
+    # free coordinates that are held (hold_free, or passive) are specified at
+    # their values, as IMP holds FGCs in kinematic mode; this keeps the
+    # pivoting from trading one free coordinate for another between steps
+    sgc[held] = True
     Qout = np.zeros((nsteps, nq))
     quality = np.zeros(nsteps)
     rank = np.zeros(nsteps, np.int64)
@@ -1212,6 +1243,22 @@ def sweep(
     return res
 
 
+def _start_posture(system: System, start: Any) -> np.ndarray:
+    """The starting joint variables (internal units): the modeling posture or ``start``."""
+    if start is None:
+        return system.q0.copy()
+    try:
+        q = np.asarray(start, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise InputError(f"start must be {system.nq} numbers (all joint variables)") from None
+    if q.shape != (system.nq,) or not np.all(np.isfinite(q)):
+        raise InputError(
+            f"start must hold {system.nq} finite numbers, one per joint variable "
+            f"({', '.join(system.var_names)}); got {q.size}"
+        )
+    return system.to_internal(q).copy()
+
+
 def _failure_message(
     system: System, names: list[str], dvals: np.ndarray, k: int, status: int
 ) -> str:
@@ -1230,15 +1277,16 @@ def _failure_message(
 def check_drivers(
     system: System, q: np.ndarray, sgc: np.ndarray, dcols: np.ndarray, pivot_tol: float,
     hold_free: bool,
-) -> tuple[int, float]:
+) -> np.ndarray:
     """Check the drivers at posture ``q``: not determined by the constraints, enough of them.
 
-    Returns (rank, quality).  Raises InputError naming the offending driver or
-    the free coordinates that need drivers.
+    Returns the free coordinates to hold (all of them with ``hold_free``,
+    otherwise only passive ones).  Raises InputError naming the offending
+    driver or the free coordinates that need drivers.
     """
     K = system.K
     w = Work(K, system.nq)
-    _err, rank, det = evaluate(K, q, sgc, pivot_tol, *w.eval_tuple())
+    _err, rank, _det, _rest = evaluate(K, q, sgc, pivot_tol, *w.eval_tuple())
     nq = system.nq
     if sgc_residual(w.T, sgc, w.prow, rank, nq) > 1e-6:
         # find which driver is determined: the ones with a residual in an unpivoted row
@@ -1264,7 +1312,7 @@ def check_drivers(
                 f"{', '.join(system.var_names[c] for c in active)} "
                 "(or pass hold_free=True to keep them at their values)"
             )
-    return rank, det
+    return np.array(free, np.int64)
 
 
 def rank_full(system: System, q: np.ndarray) -> int:
@@ -1272,7 +1320,7 @@ def rank_full(system: System, q: np.ndarray) -> int:
     K = system.K
     w = Work(K, system.nq)
     sgc = np.zeros(system.nq, np.bool_)
-    _, rank, _ = evaluate(K, q, sgc, 1e-10, *w.eval_tuple())
+    _, rank, _, _ = evaluate(K, q, sgc, 1e-10, *w.eval_tuple())
     return int(rank)
 
 

@@ -50,6 +50,11 @@ class Point:
     xyz: np.ndarray
 
 
+def _fmt(v: Any) -> str:
+    """A vector as plain numbers for messages: (1, 0, 0)."""
+    return "(" + ", ".join(f"{float(x):.6g}" for x in np.asarray(v).reshape(-1)) + ")"
+
+
 def _vec3(name: str, what: str, v: Vec | None) -> np.ndarray | None:
     if v is None:
         return None
@@ -91,8 +96,8 @@ def frame_from_axes(
     up = u - (u @ wn) * wn
     if float(np.linalg.norm(up)) < 1e-9 * max(1.0, float(np.linalg.norm(u))):
         raise InputError(
-            f"{name}: the reference direction {tuple(u)} is parallel to the axis "
-            f"{tuple(wn)}; give a reference direction that is not along the axis"
+            f"{name}: the reference direction {_fmt(u)} is parallel to the axis "
+            f"{_fmt(wn)}; give a reference direction that is not along the axis"
         )
     un = up / np.linalg.norm(up)
     vn = np.cross(wn, un)
@@ -200,6 +205,9 @@ class Model:
         (``lead=`` for a screw, ``ratio=`` for gears, ...).
         """
         name = self._check_name(name, "joint")
+        if not isinstance(kind, str):
+            raise InputError(f"joint {name!r}: the kind must be a name such as 'revolute', "
+                             f"got {kind!r}")
         jt = joint_type(kind)
         kname = kind.lower()
         if name in self.joints:
@@ -225,7 +233,7 @@ class Model:
             if a is not None and np.linalg.norm(np.cross(_unit(where, "axis", a), da)) > 1e-9:
                 raise InputError(
                     f"{where}: a {kname} turns or slides along global {kname[0].upper()}; "
-                    f"use kind 'revolute' or 'prismatic' for the axis {tuple(a)}"
+                    f"use kind 'revolute' or 'prismatic' for the axis {_fmt(a)}"
                 )
             a = np.asarray(da) if a is None else a
             r = np.asarray(dr) if r is None else r
