@@ -10,13 +10,15 @@ Build a :class:`Model` (or read an IMP deck with :func:`load`), compile it to a
     res = m.compile().sweep({"A": np.radians(np.arange(361))})
 """
 
+from typing import Any
+
 from openimp.errors import AnalysisError, InputError, OpenIMPError
 from openimp.model import Model
 
 __version__ = "0.1.0"
 
 
-def load(path: str):  # noqa: ANN201 - returns openimp.imp.interp.Deck (imported lazily)
+def load(path: str) -> Any:
     """Read an IMP deck: the model it builds plus its requests (see openimp.imp.interp.load)."""
     from openimp.imp.interp import load as _load
 

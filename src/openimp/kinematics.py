@@ -573,7 +573,7 @@ def sweep_kernel(
         # collapses toward zero instead of jumping to a smaller J11's value
         if rank > rank_ref:
             rank_ref = rank
-        for t in range(rank_ref - rank):
+        for _ in range(rank_ref - rank):
             det *= rest
         quality[k] = det
         rank_out[k] = rank
