@@ -126,7 +126,10 @@ def postures(K: Any, Tj: np.ndarray, T0: np.ndarray, A: np.ndarray, scr: np.ndar
         b = K.order[k]
         h = K.pj[b]
         if h < 0:
-            T0[b] = K.Tref[b]
+            # element-wise: a slice assignment would allocate (numba's overlap check)
+            for r in range(4):
+                for c in range(4):
+                    T0[b, r, c] = K.Tref[b, r, c]
         elif K.psign[b] > 0:
             mul4(T0[K.jb1[h]], Tj[h], T0[b])
         else:
@@ -261,8 +264,10 @@ def gauss_jordan(
         T[r, n + m] = E[r]
     rowused = used[:m]
     colused = used[m:m + n]
-    rowused[:] = False
-    colused[:] = False
+    for r in range(m):
+        rowused[r] = False
+    for c in range(n):
+        colused[c] = False
     det = 1.0
     rank = 0
     rest = 0.0
