@@ -26,9 +26,10 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from openimp._jit import njit
+from openimp._jit import njit, prange
 from openimp.errors import AnalysisError, InputError
 from openimp.joints import MAXV, SPHERE, joint_dQ, joint_phi, joint_Q
+from openimp.system import KData
 
 if TYPE_CHECKING:
     from openimp.system import System
@@ -1373,3 +1374,170 @@ def require_complete(result: SweepResult) -> SweepResult:
     if not result.complete:
         raise AnalysisError(result.message, partial=result)
     return result
+
+
+# =============================================================================
+# Batches of variants (same topology, other dimensions or inputs)
+# =============================================================================
+@njit(parallel=True)
+def batch_kernel(
+    K: Any, S1s: np.ndarray, S2s: np.ndarray, S2invs: np.ndarray, Trefs: np.ndarray,
+    consts: np.ndarray, q0s: np.ndarray, sgc: np.ndarray, dcols: np.ndarray,
+    dvals: np.ndarray, tol: float, ptol: float, maxit: int, maxhalve: int,
+    Qout: np.ndarray, quality: np.ndarray, rank_out: np.ndarray, fgc_out: np.ndarray,
+    iters_out: np.ndarray, done_out: np.ndarray, status_out: np.ndarray,
+) -> None:
+    """Run :func:`sweep_kernel` for every variant v in parallel.
+
+    The variants share the topology and joint kinds of ``K`` and differ in
+    their shape matrices, reference postures, constants, starting variables
+    and driver values (``dvals[v]``).
+    """
+    nv = q0s.shape[0]
+    nq = q0s.shape[1]
+    nj = K.jcode.shape[0]
+    nb = K.order.shape[0]
+    m = 6 * K.L.shape[0] + K.er.shape[0]
+    for v in prange(nv):
+        Kv = KData(K.jcode, K.jnv, K.jq0, K.jc0, K.jb1, K.jb2, S1s[v], S2s[v], S2invs[v],
+                   consts[v], K.order, K.pj, K.pb, K.psign, Trefs[v], K.chord, K.L, K.P,
+                   K.er, K.vjoint, K.ptbody, K.ptlocal)
+        q = q0s[v].copy()
+        Phi = np.zeros((nj, 4, 4))
+        Tj = np.zeros((nj, 4, 4))
+        T0 = np.zeros((nb, 4, 4))
+        A = np.zeros((nj, 4, 4))
+        Dh = np.zeros((max(nq, 1), 6))
+        J = np.zeros((m, nq))
+        E = np.zeros(m)
+        T = np.zeros((m, nq + m + 1))
+        prow = np.zeros(max(m, 1), np.int64)
+        pcol = np.zeros(max(m, 1), np.int64)
+        dq = np.zeros(nq)
+        Qb = np.zeros((MAXV, 4, 4))
+        scr = np.zeros((8, 4, 4))
+        used = np.zeros(m + nq + 1, np.bool_)
+        dummy2 = np.zeros((1, 1))
+        dummy1 = np.zeros(1)
+        rd = np.zeros((1, dcols.shape[0]))
+        done, st = sweep_kernel(
+            Kv, q, sgc, dcols, dvals[v], tol, ptol, maxit, maxhalve, Qout[v], quality[v],
+            rank_out[v], fgc_out[v], iters_out[v], False, rd, rd, dummy2, dummy2, dummy1,
+            Phi, Tj, T0, A, Dh, J, E, T, prow, pcol, dq, Qb, scr, used)
+        done_out[v] = done
+        status_out[v] = st
+
+
+class BatchResult:
+    """Sweeps of many variants: one :class:`SweepResult` per variant, on demand.
+
+    ``q`` holds every variant's joint variables (variants x steps x nq, model
+    units); ``solved[v]`` is the number of steps variant v reached.
+    """
+
+    def __init__(self, systems: Sequence[System], Q: np.ndarray, quality: np.ndarray,
+                 rank: np.ndarray, fgc: np.ndarray, iters: np.ndarray, solved: np.ndarray,
+                 messages: list[str], drivers: list[str]) -> None:
+        self.systems = list(systems)
+        self._Q = Q
+        self.quality = quality
+        self.rank = rank
+        self._fgc = fgc
+        self.iterations = iters
+        self.solved = solved
+        self.messages = messages
+        self.drivers = drivers
+
+    def __len__(self) -> int:
+        return len(self.systems)
+
+    @property
+    def q(self) -> np.ndarray:
+        """Joint variables (variants x steps x nq), model units (NaN past a failure)."""
+        out = self._Q * np.stack([s.var_scale for s in self.systems])[:, None, :]
+        for v, n in enumerate(self.solved):
+            out[v, n:] = np.nan
+        return out
+
+    def __getitem__(self, v: int) -> SweepResult:
+        n = int(self.solved[v])
+        return SweepResult(self.systems[v], self._Q[v, :n], self.quality[v, :n],
+                           self.rank[v, :n], self._fgc[v, :n], self.iterations[v, :n],
+                           self.drivers, self.messages[v])
+
+
+def sweep_batch(
+    systems: Sequence[System],
+    drivers: Mapping[Any, Sequence[float] | np.ndarray],
+    *,
+    tol: float = 1e-10,
+    pivot_tol: float = 1e-10,
+    maxit: int = 25,
+    maxhalve: int = 12,
+    hold_free: bool = False,
+) -> BatchResult:
+    """Sweep many variants of one mechanism in one compiled, parallel call.
+
+    ``systems`` are compiled models of the same topology and joint kinds
+    (built, for example, from one model-building function with other
+    dimensions).  ``drivers`` maps joint keys to arrays of shape (steps,)
+    (the same for every variant) or (variants, steps).  Every variant is
+    checked like :func:`sweep` and solved independently, in parallel over
+    the cores.
+    """
+    if not systems:
+        raise InputError("sweep_batch needs at least one compiled system")
+    s0 = systems[0]
+    K = s0.K
+    for i, s in enumerate(systems[1:], start=1):
+        Ks = s.K
+        same = (s.var_names == s0.var_names and s.bodies == s0.bodies
+                and np.array_equal(Ks.jcode, K.jcode) and np.array_equal(Ks.L, K.L)
+                and np.array_equal(Ks.pj, K.pj) and Ks.const.shape == K.const.shape)
+        if not same:
+            raise InputError(
+                f"variant {i} ({s.name!r}) does not have the topology and joints of variant 0 "
+                f"({s0.name!r}); a batch needs one mechanism with other dimensions"
+            )
+    nv = len(systems)
+    cols = None
+    vals = []
+    for key, v in drivers.items():
+        a = np.asarray(v, dtype=float)
+        if a.ndim == 1:
+            a = np.broadcast_to(a, (nv, a.size))
+        if a.ndim != 2 or a.shape[0] != nv:
+            raise InputError(f"driver {key!r}: give (steps,) or ({nv}, steps) values")
+        vals.append(a)
+    per_variant = []
+    for v, s in enumerate(systems):
+        dmap = {key: vals[k][v] for k, key in enumerate(drivers)}
+        c, dv = _driver_columns(s, dmap)
+        if cols is None:
+            cols = c
+        per_variant.append(dv)
+    assert cols is not None
+    dvals = np.ascontiguousarray(np.stack(per_variant))
+    nq = s0.nq
+    sgc = np.zeros(nq, np.bool_)
+    sgc[cols] = True
+    held = check_drivers(s0, s0.q0.copy(), sgc.copy(), cols, pivot_tol, hold_free)
+    sgc[held] = True
+    nsteps = dvals.shape[1]
+    Q = np.zeros((nv, nsteps, nq))
+    quality = np.zeros((nv, nsteps))
+    rank = np.zeros((nv, nsteps), np.int64)
+    fgc = np.zeros((nv, nsteps, nq), np.bool_)
+    iters = np.zeros((nv, nsteps), np.int64)
+    done = np.zeros(nv, np.int64)
+    status = np.zeros(nv, np.int64)
+    batch_kernel(
+        K, np.stack([s.K.S1 for s in systems]), np.stack([s.K.S2 for s in systems]),
+        np.stack([s.K.S2inv for s in systems]), np.stack([s.K.Tref for s in systems]),
+        np.stack([s.K.const for s in systems]), np.stack([s.q0 for s in systems]), sgc, cols,
+        dvals, tol, pivot_tol, maxit, maxhalve, Q, quality, rank, fgc, iters, done, status)
+    names = [s0.var_names[c] for c in cols]
+    msgs = ["" if done[v] == nsteps else
+            _failure_message(systems[v], names, dvals[v], int(done[v]), int(status[v]))
+            for v in range(nv)]
+    return BatchResult(systems, Q, quality, rank, fgc, iters, done, msgs, names)
