@@ -922,6 +922,9 @@ class SweepResult:
         self.message = message
         #: times of the steps when the sweep was driven by motions of time
         self.time: np.ndarray | None = None
+        #: rank and quality index at the start posture (the regular values)
+        self.rank_ref = 0
+        self.quality_ref = 0.0
         self._T0: np.ndarray | None = None
         self._qd: np.ndarray | None = None
         self._qdd: np.ndarray | None = None
@@ -951,15 +954,21 @@ class SweepResult:
     def singular(self) -> np.ndarray:
         """Steps at a singular posture, where rates are not determined by the drivers.
 
-        A step is singular when the rank of the Jacobian drops below its most
-        common value along the sweep (an extra instantaneous freedom appears,
-        as at a dead centre) or when the acceleration equations are
-        inconsistent there (8.45).
+        A step is singular when the rank of the Jacobian is below the regular
+        rank (the largest seen at the start posture or along the sweep: an
+        extra instantaneous freedom appears, as at a dead centre), when the
+        quality index has fallen below ``1e-6`` of its regular value (rates
+        there are amplified a million-fold: a near-locking posture), or when
+        the acceleration equations are inconsistent there (8.45).  Rates at a
+        flagged step are not determined by the drivers: they may be huge (the
+        true rates diverge at a locking posture) or leave the extra freedom at
+        rest (a change point).
         """
         if self.nsteps == 0:
             return np.zeros(0, bool)
-        typical = np.bincount(self.rank).argmax()
-        sing = self.rank < typical
+        rank_ref = max(self.rank_ref, int(self.rank.max()))
+        q_ref = max(self.quality_ref, float(self.quality.max()))
+        sing = (self.rank < rank_ref) | (self.quality < 1e-6 * q_ref)
         if self.consistency is not None:
             sing |= self.consistency > 1e-6
         return sing
@@ -1143,8 +1152,12 @@ def _rate_values(
     if not given:
         return out
     pos = {int(c): j for j, c in enumerate(dcols)}
+    seen: set[int] = set()
     for key, v in given.items():
         c = system.var_index(key)
+        if c in seen:
+            raise InputError(f"{what} of {key!r} is given twice")
+        seen.add(c)
         if c not in pos:
             raise InputError(f"{what} given for {key!r}, which is not one of the drivers")
         try:
@@ -1218,7 +1231,7 @@ def sweep(
     sgc = np.zeros(nq, np.bool_)
     sgc[dcols] = True
     q = _start_posture(system, start)
-    held = check_drivers(system, q, sgc, dcols, pivot_tol, hold_free)
+    held, rank0, quality0 = check_drivers(system, q, sgc, dcols, pivot_tol, hold_free)
     # free coordinates that are held (hold_free, or passive) are specified at
     # their values, as IMP holds FGCs in kinematic mode; this keeps the
     # pivoting from trading one free coordinate for another between steps
@@ -1242,6 +1255,7 @@ def sweep(
         msg = _failure_message(system, names, dvals, done, status)
     res = SweepResult(system, Qout[:done], quality[:done], rank[:done], fgc[:done],
                       iters[:done], names, msg)
+    res.rank_ref, res.quality_ref = rank0, quality0
     if want:
         res._set_rates(QD[:done], QDD[:done], cons[:done])
     if tarr is not None:
@@ -1283,16 +1297,16 @@ def _failure_message(
 def check_drivers(
     system: System, q: np.ndarray, sgc: np.ndarray, dcols: np.ndarray, pivot_tol: float,
     hold_free: bool,
-) -> np.ndarray:
+) -> tuple[np.ndarray, int, float]:
     """Check the drivers at posture ``q``: not determined by the constraints, enough of them.
 
     Returns the free coordinates to hold (all of them with ``hold_free``,
-    otherwise only passive ones).  Raises InputError naming the offending
+    otherwise only passive ones), the rank and the quality index there.  Raises InputError naming the offending
     driver or the free coordinates that need drivers.
     """
     K = system.K
     w = Work(K, system.nq)
-    _err, rank, _det, _rest = evaluate(K, q, sgc, pivot_tol, *w.eval_tuple())
+    _err, rank, det, _rest = evaluate(K, q, sgc, pivot_tol, *w.eval_tuple())
     nq = system.nq
     if sgc_residual(w.T, sgc, w.prow, rank, nq) > 1e-6:
         # find which driver is determined: the ones with a residual in an unpivoted row
@@ -1318,7 +1332,7 @@ def check_drivers(
                 f"{', '.join(system.var_names[c] for c in active)} "
                 "(or pass hold_free=True to keep them at their values)"
             )
-    return np.array(free, np.int64)
+    return np.array(free, np.int64), int(rank), float(det)
 
 
 def rank_full(system: System, q: np.ndarray) -> int:
@@ -1521,7 +1535,7 @@ def sweep_batch(
     nq = s0.nq
     sgc = np.zeros(nq, np.bool_)
     sgc[cols] = True
-    held = check_drivers(s0, s0.q0.copy(), sgc.copy(), cols, pivot_tol, hold_free)
+    held, _, _ = check_drivers(s0, s0.q0.copy(), sgc.copy(), cols, pivot_tol, hold_free)
     sgc[held] = True
     nsteps = dvals.shape[1]
     Q = np.zeros((nv, nsteps, nq))

@@ -119,13 +119,19 @@ class FromCallable(Motion):
             p, v, a = (np.broadcast_to(np.asarray(x, dtype=float), t.shape) for x in out)
         except (TypeError, ValueError):
             # the function may accept only scalars
+            name = getattr(self.fn, "__name__", self.fn)
             try:
                 rows = [tuple(map(float, self.fn(float(x)))) for x in t.ravel()]
             except Exception as exc:
                 raise InputError(
-                    f"motion function {getattr(self.fn, '__name__', self.fn)!r} must return "
+                    f"motion function {name!r} must return "
                     f"(position, velocity, acceleration) for a time t: {exc}"
                 ) from exc
+            if any(len(r) != 3 for r in rows):
+                raise InputError(
+                    f"motion function {name!r} must return three values "
+                    "(position, velocity, acceleration)"
+                )
             arr = np.array(rows).reshape(*t.shape, 3)
             p, v, a = arr[..., 0], arr[..., 1], arr[..., 2]
         if not (np.all(np.isfinite(p)) and np.all(np.isfinite(v)) and np.all(np.isfinite(a))):
