@@ -131,7 +131,7 @@ class FromCallable(Motion):
                 raise InputError(
                     f"motion function {name!r} must return three values "
                     "(position, velocity, acceleration)"
-                )
+                ) from None
             arr = np.array(rows).reshape(*t.shape, 3)
             p, v, a = arr[..., 0], arr[..., 1], arr[..., 2]
         if not (np.all(np.isfinite(p)) and np.all(np.isfinite(v)) and np.all(np.isfinite(a))):
