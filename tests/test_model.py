@@ -281,9 +281,6 @@ def test_bad_constants():
                                           lead=1.0), "R1", "lead")
 
 
-@pytest.mark.xfail(reason="BUG: joints._screw_consts does float(kw.pop('lead')) unguarded: "
-                   "a non-numeric lead raises a bare ValueError", strict=True,
-                   raises=ValueError)
 def test_non_numeric_screw_lead():
     input_error(lambda: Model().add_joint("screw", "S1", "BASE", "L1", origin=(0, 0, 0),
                                           lead="abc"), "S1")

@@ -25,6 +25,36 @@ except ImportError:  # pragma: no cover - exercised only on broken installs
     JIT_ENABLED = False
 
 
+def _source_digest() -> str:
+    """Hash of every source file of the package.
+
+    numba keys a cached function on its own file only, so a kernel in
+    kinematics.py would keep stale machine code of joints.py after an upgrade
+    or an edit; one cache directory per source version avoids that.
+    """
+    import hashlib
+    from pathlib import Path
+
+    h = hashlib.sha1()
+    root = Path(__file__).resolve().parent
+    for p in sorted(root.rglob("*.py")):
+        h.update(p.relative_to(root).as_posix().encode())
+        h.update(p.read_bytes())
+    return h.hexdigest()[:16]
+
+
+def _cache_dir() -> str:
+    base = os.environ.get("OPENIMP_CACHE_DIR") or os.path.join(
+        os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache"),
+        "openimp",
+    )
+    return os.path.join(base, "numba-" + _source_digest())
+
+
+if _numba is not None and JIT_ENABLED and not os.environ.get("NUMBA_CACHE_DIR"):
+    _numba.config.CACHE_DIR = _cache_dir()
+
+
 def njit(*args: Any, **kwargs: Any) -> Any:
     """Compile a function in nopython mode with an on-disk cache (or leave it as is).
 

@@ -28,7 +28,15 @@ import numpy as np
 
 from openimp._jit import njit, prange
 from openimp.errors import AnalysisError, InputError
-from openimp.joints import MAXV, SPHERE, joint_dQ, joint_phi, joint_Q
+from openimp.joints import (
+    MAXV,
+    SPHERE,
+    SPHERE_GROOVE,
+    SPHERE_PLANE,
+    joint_dQ,
+    joint_phi,
+    joint_Q,
+)
 from openimp.system import KData
 
 if TYPE_CHECKING:
@@ -1301,8 +1309,9 @@ def check_drivers(
     """Check the drivers at posture ``q``: not determined by the constraints, enough of them.
 
     Returns the free coordinates to hold (all of them with ``hold_free``,
-    otherwise only passive ones), the rank and the quality index there.  Raises InputError naming the offending
-    driver or the free coordinates that need drivers.
+    otherwise only passive ones), the rank and the quality index there.
+    Raises InputError naming the offending driver or the free coordinates
+    that need drivers.
     """
     K = system.K
     w = Work(K, system.nq)
@@ -1345,13 +1354,14 @@ def rank_full(system: System, q: np.ndarray) -> int:
 
 
 def passive_freedoms(system: System, q: np.ndarray, w: Work, rank: int, free: list[int]) -> set:
-    """Free coordinates that only spin one body between two ball joints.
+    """Free coordinates that only spin one body between two ball-type joints.
 
     Such an idle freedom (the coupler of an RSSR turning about the line of its
     ball centres) moves no other body and no point of the mechanism off that
     line, so a kinematic sweep may hold it.  A free coordinate is passive when
     its first geometric derivative moves exactly one body, that body carries
-    exactly two joints, both spheric, and it carries no points.
+    exactly two joints, both ball-type (sphere, sphere_plane, sphere_groove),
+    and it carries no points.
     """
     K = system.K
     nq = system.nq
@@ -1376,7 +1386,7 @@ def passive_freedoms(system: System, q: np.ndarray, w: Work, rank: int, free: li
         incident = [h for h in range(len(system.joints)) if K.jb1[h] == b or K.jb2[h] == b]
         if (
             len(incident) == 2
-            and all(K.jcode[h] == SPHERE for h in incident)
+            and all(K.jcode[h] in (SPHERE, SPHERE_PLANE, SPHERE_GROOVE) for h in incident)
             and not np.any(K.ptbody == b)
         ):
             out.add(c)

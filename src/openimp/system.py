@@ -279,9 +279,10 @@ def compile_model(model: Model) -> System:
         jnv[h] = jt.nvar
         jq0[h] = len(q0)
         jc0[h] = len(consts)
-        consts.extend(c.tolist())
         Phi = _rigid_inverse(F1) @ F2
+        # conformity may complete constants from the frames (a gear's centre distance)
         q = conformity(jt, j.name, Phi, c, Ls, tol=1e-7)
+        consts.extend(c.tolist())
         for e in jt.er_groups:
             er.append(len(q0) + e)
         q0.extend(np.asarray(q, dtype=float).tolist())
