@@ -136,7 +136,7 @@ MAXV = 7
 # =============================================================================
 # Small 4x4 helpers usable inside kernels
 # =============================================================================
-@njit
+@njit(inline="always")
 def _eye(out: np.ndarray) -> None:
     for i in range(4):
         for j in range(4):
@@ -144,7 +144,7 @@ def _eye(out: np.ndarray) -> None:
         out[i, i] = 1.0
 
 
-@njit
+@njit(inline="always")
 def _rotz(out: np.ndarray, a: float) -> None:
     """Rotation about w by ``a`` into a 4x4 (translation left to the caller)."""
     ca = math.cos(a)
@@ -156,7 +156,7 @@ def _rotz(out: np.ndarray, a: float) -> None:
     out[1, 1] = ca
 
 
-@njit
+@njit(inline="always")
 def _er_rot(out: np.ndarray, e: np.ndarray, k: int) -> None:
     """Theta(e) of book (3.50) from e[k:k+4] into out[:3,:3]."""
     e1 = e[k]
@@ -242,7 +242,7 @@ def _er_dQ(out: np.ndarray, g: int, i: int) -> None:
 # =============================================================================
 # Kernels: Phi, Q, dQ for every code
 # =============================================================================
-@njit
+@njit(inline="always")
 def joint_phi(code: int, q: np.ndarray, c: np.ndarray, out: np.ndarray) -> None:
     """Joint matrix Phi(q) of a joint of kind ``code`` with constants ``c``."""
     if code == REVOLUTE:
@@ -275,7 +275,7 @@ def joint_phi(code: int, q: np.ndarray, c: np.ndarray, out: np.ndarray) -> None:
         _eye(out)
 
 
-@njit
+@njit(inline="always")
 def joint_Q(code: int, q: np.ndarray, c: np.ndarray, out: np.ndarray) -> None:
     """Derivative operators Q_g (g = 0..nvar-1) into ``out[g]`` (shape (MAXV, 4, 4))."""
     nv = _nvar(code)
@@ -353,7 +353,7 @@ def joint_dQ(code: int, q: np.ndarray, c: np.ndarray, out: np.ndarray) -> None:
         _higher_dQ(code, q, c, out)
 
 
-@njit
+@njit(inline="always")
 def _nvar(code: int) -> int:
     """Number of variables of a joint kind (must agree with :data:`CATALOGUE`)."""
     if code == RIGID:

@@ -184,11 +184,10 @@ def screw_columns(
 
 
 @njit
-def loop_equations(
-    K: Any, q: np.ndarray, T0: np.ndarray, A: np.ndarray, Tj: np.ndarray,
-    Dh: np.ndarray, J: np.ndarray, E: np.ndarray, Qb: np.ndarray, scr: np.ndarray,
+def loop_residual(
+    K: Any, q: np.ndarray, T0: np.ndarray, Tj: np.ndarray, E: np.ndarray, scr: np.ndarray,
 ) -> float:
-    """Jacobian J and right-hand side E of J dq = E (6.45); returns max |E|.
+    """Right-hand side E of J dq = E (6.40, 6.43); returns max |E|.
 
     Loop i closes chord c from body b to body d:  F = T_0b T_c T_0d^-1 = I.
     Its first-order expansion is  sum_h L(i,h) D_h dphi_h = F - I  with the
@@ -196,13 +195,6 @@ def loop_equations(
     false-solution guard (6.48).
     """
     nl = K.L.shape[0]
-    nj = K.jcode.shape[0]
-    nq = q.shape[0]
-    m = J.shape[0]
-    for r in range(m):
-        for c in range(nq):
-            J[r, c] = 0.0
-    screw_columns(K, q, A, Dh, Qb, scr)
     F = scr[3]
     tmp = scr[4]
     inv_d = scr[5]
@@ -224,6 +216,34 @@ def loop_equations(
         for k in range(6):
             if abs(E[r0 + k]) > err:
                 err = abs(E[r0 + k])
+    r = 6 * nl
+    for k in range(K.er.shape[0]):
+        e0 = K.er[k]
+        s = 0.0
+        for t in range(4):
+            s += q[e0 + t] * q[e0 + t]
+        E[r + k] = 1.0 - s
+        if abs(E[r + k]) > err:
+            err = abs(E[r + k])
+    return err
+
+
+@njit
+def loop_jacobian(
+    K: Any, q: np.ndarray, A: np.ndarray, Dh: np.ndarray, J: np.ndarray, Qb: np.ndarray,
+    scr: np.ndarray,
+) -> None:
+    """Jacobian of the loop equations (6.45): L(i,h) times the screws of D_h, ER rows."""
+    nl = K.L.shape[0]
+    nj = K.jcode.shape[0]
+    nq = q.shape[0]
+    m = J.shape[0]
+    for r in range(m):
+        for c in range(nq):
+            J[r, c] = 0.0
+    screw_columns(K, q, A, Dh, Qb, scr)
+    for i in range(nl):
+        r0 = 6 * i
         for h in range(nj):
             lih = K.L[i, h]
             if lih == 0:
@@ -235,20 +255,24 @@ def loop_equations(
     r = 6 * nl
     for k in range(K.er.shape[0]):
         e0 = K.er[k]
-        s = 0.0
         for t in range(4):
             J[r + k, e0 + t] = 2.0 * q[e0 + t]
-            s += q[e0 + t] * q[e0 + t]
-        E[r + k] = 1.0 - s
-        if abs(E[r + k]) > err:
-            err = abs(E[r + k])
-    return err
+
+
+@njit
+def loop_equations(
+    K: Any, q: np.ndarray, T0: np.ndarray, A: np.ndarray, Tj: np.ndarray,
+    Dh: np.ndarray, J: np.ndarray, E: np.ndarray, Qb: np.ndarray, scr: np.ndarray,
+) -> float:
+    """Jacobian J and right-hand side E of J dq = E (6.45); returns max |E|."""
+    loop_jacobian(K, q, A, Dh, J, Qb, scr)
+    return loop_residual(K, q, T0, Tj, E, scr)
 
 
 @njit
 def gauss_jordan(
     J: np.ndarray, E: np.ndarray, sgc: np.ndarray, tol: float,
-    T: np.ndarray, prow: np.ndarray, pcol: np.ndarray, used: np.ndarray,
+    T: np.ndarray, prow: np.ndarray, pcol: np.ndarray, used: np.ndarray, aug: bool,
 ) -> tuple[int, float, float]:
     """Restricted complete-pivoting Gauss-Jordan elimination (book 6.5.3).
 
@@ -257,20 +281,23 @@ def gauss_jordan(
     the by-products J11^-1 J12 (free columns) and J11^-1 J13 (specified
     columns); in the next m columns J11^-1 (pivot rows) and -J21 J11^-1
     (other rows); in the last the solution.  Columns with ``sgc`` true are
-    never pivoted.  ``used`` is boolean scratch of length m + n.  Returns the
+    never pivoted.  ``used`` is boolean scratch of length m + n.  Without
+    ``aug`` the identity block is neither formed nor reduced (positions only
+    need the by-products in the columns of J and the solution).  Returns the
     rank, the quality index |det J11| and the largest entry left unpivoted
     (below ``tol``; 0 when the elimination ran out of rows or columns).
     """
     m = J.shape[0]
     n = J.shape[1]
-    w = n + m + 1
+    rhs = n + m
     for r in range(m):
         for c in range(n):
             T[r, c] = J[r, c]
-        for c in range(n, n + m):
-            T[r, c] = 0.0
-        T[r, n + r] = 1.0
-        T[r, n + m] = E[r]
+        if aug:
+            for c in range(n, n + m):
+                T[r, c] = 0.0
+            T[r, n + r] = 1.0
+        T[r, rhs] = E[r]
     rowused = used[:m]
     colused = used[m:m + n]
     for r in range(m):
@@ -306,16 +333,24 @@ def gauss_jordan(
         piv = T[br, bc]
         det *= best
         inv = 1.0 / piv
-        for c in range(w):
+        for c in range(n):
             T[br, c] *= inv
+        T[br, rhs] *= inv
+        if aug:
+            for c in range(n, n + m):
+                T[br, c] *= inv
         T[br, bc] = 1.0
         for r in range(m):
             if r == br:
                 continue
             f = T[r, bc]
             if f != 0.0:
-                for c in range(w):
+                for c in range(n):
                     T[r, c] -= f * T[br, c]
+                T[r, rhs] -= f * T[br, rhs]
+                if aug:
+                    for c in range(n, n + m):
+                        T[r, c] -= f * T[br, c]
                 T[r, bc] = 0.0
     return rank, det, rest
 
@@ -392,7 +427,7 @@ def evaluate(
     K: Any, q: np.ndarray, sgc: np.ndarray, ptol: float,
     Phi: np.ndarray, Tj: np.ndarray, T0: np.ndarray, A: np.ndarray, Dh: np.ndarray,
     J: np.ndarray, E: np.ndarray, T: np.ndarray, prow: np.ndarray, pcol: np.ndarray,
-    Qb: np.ndarray, scr: np.ndarray, used: np.ndarray,
+    Qb: np.ndarray, scr: np.ndarray, used: np.ndarray, aug: bool = True,
 ) -> tuple[float, int, float, float]:
     """Postures, loop equations and their elimination at ``q``.
 
@@ -401,7 +436,7 @@ def evaluate(
     joint_transforms(K, q, Phi, Tj, scr)
     postures(K, Tj, T0, A, scr)
     err = loop_equations(K, q, T0, A, Tj, Dh, J, E, Qb, scr)
-    rank, det, rest = gauss_jordan(J, E, sgc, ptol, T, prow, pcol, used)
+    rank, det, rest = gauss_jordan(J, E, sgc, ptol, T, prow, pcol, used, aug)
     return err, rank, det, rest
 
 
@@ -410,14 +445,17 @@ def newton(
     K: Any, q: np.ndarray, sgc: np.ndarray, tol: float, ptol: float, maxit: int,
     Phi: np.ndarray, Tj: np.ndarray, T0: np.ndarray, A: np.ndarray, Dh: np.ndarray,
     J: np.ndarray, E: np.ndarray, T: np.ndarray, prow: np.ndarray, pcol: np.ndarray,
-    dq: np.ndarray, Qb: np.ndarray, scr: np.ndarray, used: np.ndarray,
+    dq: np.ndarray, Qb: np.ndarray, scr: np.ndarray, used: np.ndarray, aug: bool,
 ) -> tuple[int, int, int, float, float]:
     """Newton-Raphson on the loop equations (book 6.5); q is updated in place.
 
     Converged when every |E| and every correction is below ``tol`` (internal
     units).  Returns (status, iterations, rank, quality, largest unpivoted
-    entry); the tableau in ``T``
-    belongs to the final posture, so its by-products serve the derivatives.
+    entry); the tableau in ``T`` belongs to the final posture, so its
+    by-products serve the derivatives.
+
+    Without ``aug`` (positions only) the elimination skips the identity
+    block: the predictor needs only the by-products in the columns of J.
     """
     nq = q.shape[0]
     m = J.shape[0]
@@ -427,8 +465,8 @@ def newton(
     det = 0.0
     rest = 0.0
     for it in range(maxit):
-        err, rank, det, rest = evaluate(K, q, sgc, ptol, Phi, Tj, T0, A, Dh, J, E, T, prow, pcol,
-                                  Qb, scr, used)
+        err, rank, det, rest = evaluate(K, q, sgc, ptol, Phi, Tj, T0, A, Dh, J, E, T, prow,
+                                        pcol, Qb, scr, used, aug)
         step = 0.0
         for c in range(nq):
             dq[c] = 0.0
@@ -511,7 +549,7 @@ def sweep_kernel(
     qdd = np.zeros(nq)
     # the elimination at the start posture provides the first predictor
     st, it, rank, det, rest = newton(K, q, sgc, tol, ptol, maxit, Phi, Tj, T0, A, Dh, J, E,
-                                     T, prow, pcol, dq, Qb, scr, used)
+                                     T, prow, pcol, dq, Qb, scr, used, want_rates)
     if st != OK:
         return 0, st
     rank_ref = rank
@@ -560,7 +598,8 @@ def sweep_kernel(
                 for j in range(nd):
                     qtry[dcols[j]] = dvals[k, j]
             st, it, rank, det, rest = newton(K, qtry, sgc, tol, ptol, maxit, Phi, Tj, T0, A,
-                                             Dh, J, E, T, prow, pcol, dq, Qb, scr, used)
+                                             Dh, J, E, T, prow, pcol, dq, Qb, scr, used,
+                                             want_rates)
             total_it += it
             if st == OK:
                 for j in range(nd):
