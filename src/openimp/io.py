@@ -1,11 +1,11 @@
-"""Result tables and their export: IMP-style listings, JSON and CSV.
+"""Result tables and their export: IMP-style listings, JSON, CSV and STORE files.
 
 A :class:`Table` is what a request produces: the request that asked for it
 (``LIST POSITION``), the item (``joint JT5``), column names with units and
 rows of numbers in the units the listing prints (degrees where IMP prints
 degrees).  :class:`Run` gathers the tables of one EXECUTE.  Writers produce
-the JSON schema of DESIGN.md and one CSV file per table; files are written
-whole or not at all (to a temporary name, then renamed).
+the JSON schema of DESIGN.md, one CSV file per table and IMP's STORE file;
+files are written whole or not at all (to a temporary name, then renamed).
 """
 
 from __future__ import annotations
@@ -51,6 +51,21 @@ class Run:
     messages: list[str] = field(default_factory=list)
     #: set when the analysis stopped early (what was computed is still listed)
     failure: str = ""
+    #: requests that could not be produced (analyses not built yet), one message each
+    unsupported: list[str] = field(default_factory=list)
+
+    @property
+    def ok(self) -> bool:
+        """True when the run finished and produced every request."""
+        return not self.failure and not self.unsupported
+
+    def table(self, request: str, item: str) -> Table:
+        """The table of a request (``'LIST POSITION'``) and item (``'joint A'``)."""
+        for t in self.tables:
+            if t.request == request and t.item == item:
+                return t
+        have = ", ".join(f"{t.request} / {t.item}" for t in self.tables) or "none"
+        raise KeyError(f"no table {request} / {item} in run {self.title!r} (tables: {have})")
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dict of the run."""
@@ -60,7 +75,14 @@ class Run:
             d["messages"] = list(self.messages)
         if self.failure:
             d["failure"] = self.failure
+        if self.unsupported:
+            d["unsupported"] = list(self.unsupported)
         return d
+
+
+def atomic_write(path: str | os.PathLike[str], text: str) -> None:
+    """Write ``text`` to ``path`` whole or not at all (temporary file, then rename)."""
+    _atomic_write(Path(path), text)
 
 
 def _atomic_write(path: Path, text: str) -> None:
@@ -120,14 +142,20 @@ def banner(title: str, mode: str, when: str) -> str:
     return "\n".join(lines)
 
 
+#: how a request's quantity is named in listing headers
+QUANTITY_WORDS = {"POSITION": "position", "VELOCITY": "velocity", "ACCEL": "acceleration",
+                  "VALUE": "value", "HEADING": "generalized coordinates"}
+
+
 def format_listing(t: Table) -> str:
     """IMP-style listing of a table: header, column titles, one row per step.
 
     Time prints as %.6f and values as %.3f (IMP's LIST format, reference 2.3);
     values IMP cannot determine print as ????.
     """
-    head = f"Listing of {t.request.split(maxsplit=1)[-1].lower()} of {t.item}"
-    if t.request.upper().startswith("LIST FORCE"):
+    quantity = t.request.split(maxsplit=1)[-1].upper()
+    head = f"Listing of {QUANTITY_WORDS.get(quantity, quantity.lower())} of {t.item}"
+    if quantity == "FORCE":
         head = f"Listing of force in {t.item}"
     titles = [f"{c}" + (f" ({u})" if u else "") for c, u in zip(t.columns, t.units)]
     widths = [max(12, len(s) + 2) for s in titles]
@@ -141,9 +169,33 @@ def format_listing(t: Table) -> str:
                 s = f"{v:.6f}"
             else:
                 s = f"{v:.3f}"
+                if s == "-0.000":
+                    s = "0.000"
             cells.append(s.rjust(widths[j]))
         lines.append("".join(cells))
     return "\n".join(lines)
+
+
+def format_store(runs: Sequence[Run]) -> str:
+    """IMP's STORE file: every STORE table of every run, one line per row.
+
+    Each table starts with ``# <request> <item>`` and a column line; rows hold
+    full-precision numbers (``%.10g``); undetermined values are written as
+    ``0.000002``, as IMP did (reference §5).
+    """
+    lines: list[str] = []
+    for k, run in enumerate(runs, start=1):
+        for t in run.tables:
+            if not t.request.upper().startswith("STORE"):
+                continue
+            lines.append(f"# run {k}: {run.title}")
+            lines.append(f"# {t.request} {t.item}")
+            lines.append("# " + " ".join(f"{c} [{u}]" if u else c
+                                         for c, u in zip(t.columns, t.units)))
+            for r in t.rows:
+                lines.append(" ".join(f"{v:.10g}" if math.isfinite(v) else "0.000002"
+                                      for v in r))
+    return "\n".join(lines) + ("\n" if lines else "")
 
 
 def format_run(run: Run, when: str) -> str:
