@@ -679,3 +679,11 @@ def test_examples_cover_the_brief() -> None:
     for word in ("SPHERE", "UJOINT", "GEAR", "CAM", "XSLIDE", "YSLIDE", "PRISM",
                  "DATA MOTION", "ANIMATE", "PLOT", "POINT"):
         assert word in joined, word
+
+
+def test_structure_deck_runs_without_inputs() -> None:
+    """A structure (mobility 0) with no DATA POSITION/MOTION lists its one posture."""
+    _deck, runs, echo = run_deck(DECKS / "run_structure.imp")
+    assert not runs[0].failure
+    rows = listing_rows(echo, "Listing of position of point P1")
+    np.testing.assert_allclose(rows[:, 1:], [[0.5, 0.5, 0.0]], atol=5e-4)

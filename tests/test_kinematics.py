@@ -889,3 +889,20 @@ def test_result_table_and_accessors():
     np.testing.assert_array_equal(t["mobility"], res.mobility)
     np.testing.assert_array_equal(res.joint("C")[:, 0], res.variable("C.theta"))
     assert np.all(res.iterations >= 1)
+
+
+def test_structure_without_drivers():
+    """A triangle of three pins is a structure (mobility 0): drivers={} with steps=N
+    solves its one posture N times; without steps it is an input error."""
+    m = Model("truss")
+    m.add_joint("revolute", "J1", "BASE", "A1", origin=(0, 0, 0))
+    m.add_joint("revolute", "J2", "A1", "A2", origin=(1, 1, 0))
+    m.add_joint("revolute", "J3", "A2", "BASE", origin=(2, 0, 0))
+    m.add_point("P", "A1", (0.5, 0.5, 0))
+    s = m.compile()
+    res = s.sweep({}, steps=3)
+    assert res.complete and res.nsteps == 3
+    assert np.all(res.mobility == 0)
+    np.testing.assert_allclose(res.point("P"), [[0.5, 0.5, 0.0]] * 3, atol=1e-14)
+    with pytest.raises(InputError, match="steps"):
+        s.sweep({})

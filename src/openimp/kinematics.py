@@ -908,11 +908,21 @@ def postures_of(K: Any, Qs: np.ndarray, out: np.ndarray) -> None:
 # Python side
 # =============================================================================
 def _driver_columns(
-    system: System, drivers: Mapping[Any, Sequence[float] | np.ndarray]
+    system: System, drivers: Mapping[Any, Sequence[float] | np.ndarray], steps: int | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Columns and (steps x nd) values (internal units) of the drivers."""
+    """Columns and (steps x nd) values (internal units) of the drivers.
+
+    No drivers at all (a structure, or every freedom held) needs ``steps``.
+    """
     if not drivers:
-        raise InputError("give at least one driver: a joint name mapped to its values")
+        if steps is None:
+            raise InputError(
+                "give at least one driver: a joint name mapped to its values "
+                "(or drivers={} with steps=N for a structure or a held posture)"
+            )
+        if int(steps) < 1:
+            raise InputError(f"steps must be a positive number of postures, got {steps!r}")
+        return np.zeros(0, np.int64), np.zeros((int(steps), 0))
     cols: list[int] = []
     vals: list[np.ndarray] = []
     nsteps = None
@@ -1235,6 +1245,7 @@ def sweep(
     maxhalve: int = 12,
     hold_free: bool = False,
     start: np.ndarray | None = None,
+    steps: int | None = None,
 ) -> SweepResult:
     """Move ``system`` through the driver values and solve every posture.
 
@@ -1244,7 +1255,8 @@ def sweep(
     (one value per step, or one value for all); given either, the result
     carries velocities and accelerations.  Instead of ``drivers``,
     ``motion`` maps keys to functions of time (:mod:`openimp.motion`)
-    evaluated at ``times``.
+    evaluated at ``times``.  ``drivers={}`` with ``steps=N`` solves a
+    structure (mobility 0), or a posture with every freedom held, N times.
 
     Every posture is solved by Newton-Raphson to ``tol`` internal units (book
     6.7).  A model whose mobility exceeds the number of drivers is an input
@@ -1269,7 +1281,7 @@ def sweep(
     if drivers is None:
         raise InputError("give drivers (joint -> values) or motion= with times=")
     K = system.K
-    dcols, dvals = _driver_columns(system, drivers)
+    dcols, dvals = _driver_columns(system, drivers, steps)
     nq = system.nq
     nsteps = dvals.shape[0]
     want = rates is not None or accels is not None

@@ -513,7 +513,7 @@ def _free_column(system: Any, q: np.ndarray | None) -> int | None:
     w = Work(K, system.nq)
     qi = system.q0.copy() if q is None else system.to_internal(q)
     sgc = np.zeros(system.nq, np.bool_)
-    _, rank, _ = evaluate(K, qi, sgc, 1e-10, *w.eval_tuple())
+    _, rank, _, _ = evaluate(K, qi, sgc, 1e-10, *w.eval_tuple())
     piv = set(int(c) for c in w.pcol[:rank])
     for c in range(system.nq):
         if c not in piv and system.var_kinds[c] != "er":
@@ -523,10 +523,14 @@ def _free_column(system: Any, q: np.ndarray | None) -> int | None:
 
 def _structure(prep: Prepared, times: np.ndarray, cur: np.ndarray | None, acc: _Accumulator,
                notes: list[str]) -> Solution:
-    msg = ("the mechanism has no free coordinate to hold and no input motion: a run without "
-           "any input of a structure (mobility 0) needs System.sweep to accept no drivers, "
-           "which it does not yet; give a DATA MOTION of one joint at its design value")
-    return acc.solution(times[:0], prep.system.nq, msg)
+    """A structure (mobility 0, no input): its one posture at every output time."""
+    st = prep.spec.state
+    tol = st.tolerance("POSITION")[0] if "POSITION" in st.zero else 1e-10
+    ptol = st.tolerance("SYSTEM")[0] if "SYSTEM" in st.zero else 1e-10
+    res = prep.system.sweep({}, rates={}, steps=len(times), tol=tol, pivot_tol=ptol,
+                            hold_free=True, start=cur)
+    acc.take(res)
+    return acc.solution(times[:res.nsteps], prep.system.nq, res.message)
 
 
 def _stop_message(prep: Prepared, times: np.ndarray, k: int, motions: Motions,
