@@ -30,6 +30,8 @@ from openimp._jit import njit, prange
 from openimp.errors import AnalysisError, InputError
 from openimp.joints import (
     MAXV,
+    PRISMATIC,
+    REVOLUTE,
     SPHERE,
     SPHERE_GROOVE,
     SPHERE_PLANE,
@@ -113,7 +115,7 @@ def gen_inv4(a: np.ndarray, out: np.ndarray) -> None:
 # =============================================================================
 # Postures and loop equations
 # =============================================================================
-@njit
+@njit(inline="always")
 def joint_transforms(
     K: Any, q: np.ndarray, Phi: np.ndarray, Tj: np.ndarray, scr: np.ndarray
 ) -> None:
@@ -127,7 +129,7 @@ def joint_transforms(
         mul4(tmp, K.S2inv[h], Tj[h])
 
 
-@njit
+@njit(inline="always")
 def postures(K: Any, Tj: np.ndarray, T0: np.ndarray, A: np.ndarray, scr: np.ndarray) -> None:
     """T_0b of every body along the tree, and A_h = T_{0h-} S_{h-,h} of every joint."""
     tmp = scr[0]
@@ -148,7 +150,7 @@ def postures(K: Any, Tj: np.ndarray, T0: np.ndarray, A: np.ndarray, scr: np.ndar
         mul4(T0[K.jb1[h]], K.S1[h], A[h])
 
 
-@njit
+@njit(inline="always")
 def screw_columns(
     K: Any, q: np.ndarray, A: np.ndarray, Dh: np.ndarray, Qb: np.ndarray, scr: np.ndarray
 ) -> None:
@@ -160,8 +162,30 @@ def screw_columns(
         if nv == 0:
             continue
         a0 = K.jq0[h]
-        joint_Q(K.jcode[h], q[a0:a0 + nv], K.const[K.jc0[h]:], Qb)
+        code = K.jcode[h]
         Ah = A[h]
+        if code == REVOLUTE:
+            # Q = skew(e3): D is the unit rotation about w = R e3 through p,
+            # screw coordinates [p x w, w]
+            wx, wy, wz = Ah[0, 2], Ah[1, 2], Ah[2, 2]
+            px, py, pz = Ah[0, 3], Ah[1, 3], Ah[2, 3]
+            Dh[a0, 0] = py * wz - pz * wy
+            Dh[a0, 1] = pz * wx - px * wz
+            Dh[a0, 2] = px * wy - py * wx
+            Dh[a0, 3] = wx
+            Dh[a0, 4] = wy
+            Dh[a0, 5] = wz
+            continue
+        if code == PRISMATIC:
+            # Q = E34: a unit translation along w = R e3
+            Dh[a0, 0] = Ah[0, 2]
+            Dh[a0, 1] = Ah[1, 2]
+            Dh[a0, 2] = Ah[2, 2]
+            Dh[a0, 3] = 0.0
+            Dh[a0, 4] = 0.0
+            Dh[a0, 5] = 0.0
+            continue
+        joint_Q(code, q[a0:a0 + nv], K.const[K.jc0[h]:], Qb)
         for g in range(nv):
             Qg = Qb[g]
             # M' = R M R^T (only the three skew entries are needed)
@@ -183,7 +207,7 @@ def screw_columns(
             Dh[col, 5] = Mp[1, 0]
 
 
-@njit
+@njit(inline="always")
 def loop_residual(
     K: Any, q: np.ndarray, T0: np.ndarray, Tj: np.ndarray, E: np.ndarray, scr: np.ndarray,
 ) -> float:
@@ -228,7 +252,7 @@ def loop_residual(
     return err
 
 
-@njit
+@njit(inline="always")
 def loop_jacobian(
     K: Any, q: np.ndarray, A: np.ndarray, Dh: np.ndarray, J: np.ndarray, Qb: np.ndarray,
     scr: np.ndarray,
@@ -259,7 +283,7 @@ def loop_jacobian(
             J[r + k, e0 + t] = 2.0 * q[e0 + t]
 
 
-@njit
+@njit(inline="always")
 def loop_equations(
     K: Any, q: np.ndarray, T0: np.ndarray, A: np.ndarray, Tj: np.ndarray,
     Dh: np.ndarray, J: np.ndarray, E: np.ndarray, Qb: np.ndarray, scr: np.ndarray,
@@ -269,7 +293,7 @@ def loop_equations(
     return loop_residual(K, q, T0, Tj, E, scr)
 
 
-@njit
+@njit(inline="always")
 def gauss_jordan(
     J: np.ndarray, E: np.ndarray, sgc: np.ndarray, tol: float,
     T: np.ndarray, prow: np.ndarray, pcol: np.ndarray, used: np.ndarray, aug: bool,
@@ -375,7 +399,7 @@ def sgc_residual(T: np.ndarray, sgc: np.ndarray, prow: np.ndarray, rank: int, n:
     return worst
 
 
-@njit
+@njit(inline="always")
 def normalise_er(K: Any, q: np.ndarray) -> None:
     """Put every Euler-Rodrigues block back on the unit sphere (digest 9.27)."""
     for k in range(K.er.shape[0]):
