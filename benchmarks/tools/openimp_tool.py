@@ -195,36 +195,22 @@ def case_chain(ctx) -> CaseRun:
     return CaseRun(run, outputs, postures=mx.NSTEPS)
 
 
-def _try_sweep_batch(systems, drvs):
-    """Call System.sweep_batch in the forms it may take; None when none is recognised."""
-    fn = getattr(type(systems[0]), "sweep_batch", None)
-    if fn is None:
-        return None, "loop over compiled systems (no System.sweep_batch)"
-    errors = []
-    for form, call in [
-        ("System.sweep_batch(systems, drivers)", lambda s, d: fn(s, d)),
-        ("systems[0].sweep_batch(systems, drivers)", lambda s, d: s[0].sweep_batch(s, d)),
-    ]:
-        try:
-            res = list(call(systems[:2], drvs[:2]))
-            if len(res) == 2 and all(hasattr(r, "point") for r in res):
-                return call, form
-        except Exception as e:  # signature not recognised yet
-            errors.append(f"{form}: {type(e).__name__}")
-    why = "; ".join(errors)
-    return None, f"loop over compiled systems (sweep_batch not recognised: {why})"
+def _sweep_batch(systems, drvs):
+    """All variants in one compiled, parallel call (openimp.kinematics.sweep_batch)."""
+    from openimp.kinematics import sweep_batch
+
+    batch = sweep_batch(systems, {"A": np.stack([d["A"] for d in drvs])})
+    return [batch[v] for v in range(len(systems))]
 
 
 def case_batch(ctx) -> CaseRun:
     variants = mx.fourbar_variants(ctx.nvariants)
     systems = [fourbar_model(fb).compile() for fb in variants]
     drvs = [{"A": fb.crank_angles() - fb.theta0} for fb in variants]
-    batch, note = _try_sweep_batch(systems, drvs)
+    note = "openimp.kinematics.sweep_batch: one compiled call, parallel over variants"
 
     def run():
-        if batch is not None:
-            return [_complete(r) for r in batch(systems, drvs)]
-        return [_complete(s.sweep(d)) for s, d in zip(systems, drvs)]
+        return [_complete(r) for r in _sweep_batch(systems, drvs)]
 
     def outputs(results):
         return {"rocker": np.stack([_rocker_angle(r, fb.D) for r, fb in zip(results, variants)]),

@@ -905,27 +905,36 @@ def rates_of(
 
 
 @njit
-def point_positions(K: Any, T0s: np.ndarray, out: np.ndarray) -> None:
-    """Global positions of every point for a stack of posture sets T0s[steps, nb]."""
-    for s in range(T0s.shape[0]):
-        for p in range(K.ptbody.shape[0]):
-            Tb = T0s[s, K.ptbody[p]]
-            r = K.ptlocal[p]
-            for i in range(3):
-                out[s, p, i] = Tb[i, 0] * r[0] + Tb[i, 1] * r[1] + Tb[i, 2] * r[2] + Tb[i, 3]
+def tracks(
+    K: Any, Qs: np.ndarray, bodies: np.ndarray, points: np.ndarray,
+    T_out: np.ndarray, p_out: np.ndarray,
+) -> None:
+    """Postures of selected bodies and positions of selected points for every row of ``Qs``.
 
-
-@njit
-def postures_of(K: Any, Qs: np.ndarray, out: np.ndarray) -> None:
-    """Body postures T_0b for every row of ``Qs`` (forward pass along the tree)."""
+    A forward pass along the tree per step; only the selection is stored
+    (T_out: steps x len(bodies) x 4 x 4, p_out: steps x len(points) x 3), so
+    a million-step sweep needs no array of every body's posture.
+    """
     nj = K.jcode.shape[0]
+    nb = K.order.shape[0]
     Phi = np.zeros((nj, 4, 4))
     Tj = np.zeros((nj, 4, 4))
     A = np.zeros((nj, 4, 4))
+    T0 = np.zeros((nb, 4, 4))
     scr = np.zeros((8, 4, 4))
     for s in range(Qs.shape[0]):
         joint_transforms(K, Qs[s], Phi, Tj, scr)
-        postures(K, Tj, out[s], A, scr)
+        postures(K, Tj, T0, A, scr)
+        for k in range(bodies.shape[0]):
+            for r in range(4):
+                for c in range(4):
+                    T_out[s, k, r, c] = T0[bodies[k], r, c]
+        for k in range(points.shape[0]):
+            p = points[k]
+            Tb = T0[K.ptbody[p]]
+            r = K.ptlocal[p]
+            for i in range(3):
+                p_out[s, k, i] = Tb[i, 0] * r[0] + Tb[i, 1] * r[1] + Tb[i, 2] * r[2] + Tb[i, 3]
 
 
 # =============================================================================
@@ -1181,27 +1190,25 @@ class SweepResult:
         c = self.system.var_index(key)
         return self.q[:, c]
 
-    def _postures(self) -> np.ndarray:
-        if self._T0 is None:
-            nb = len(self.system.bodies)
-            out = np.zeros((self.nsteps, nb, 4, 4))
-            postures_of(self.system.K, np.ascontiguousarray(self._q), out)
-            out[..., :3, 3] *= self.system.length_scale
-            self._T0 = out
-        return self._T0
+    def _track(self, bodies: list[int], points: list[int]) -> tuple[np.ndarray, np.ndarray]:
+        T = np.zeros((self.nsteps, len(bodies), 4, 4))
+        p = np.zeros((self.nsteps, len(points), 3))
+        tracks(self.system.K, np.ascontiguousarray(self._q), np.array(bodies, np.int64),
+               np.array(points, np.int64), T, p)
+        Ls = self.system.length_scale
+        T[..., :3, 3] *= Ls
+        return T, p * Ls
 
     def posture(self, body: str) -> np.ndarray:
         """Global posture T_0b of a body (steps x 4 x 4), model units."""
-        return self._postures()[:, self.system.body_index(body)].copy()
+        b = self.system.body_index(body)
+        if self._T0 is not None:  # computed with the rates
+            return self._T0[:, b].copy()
+        return self._track([b], [])[0][:, 0]
 
     def point(self, name: str) -> np.ndarray:
         """Global position of a point (steps x 3), model units."""
-        i = self.system.point_index(name)
-        K = self.system.K
-        T = self._postures()[:, K.ptbody[i]]
-        r = K.ptlocal[i].copy()
-        r[:3] *= self.system.length_scale
-        return np.einsum("sij,j->si", T, r)[:, :3]
+        return self._track([], [self.system.point_index(name)])[1][:, 0]
 
     def to_table(self) -> dict[str, Any]:
         """Columns: step (and time), joint variables (and their rates), quality, mobility."""
