@@ -734,14 +734,21 @@ def operators(K: Any, q: np.ndarray, A: np.ndarray, D4: np.ndarray, B4: np.ndarr
 
 
 @njit
-def body_velocities(K: Any, qd: np.ndarray, D4: np.ndarray, omega: np.ndarray) -> None:
-    """Velocity operators omega_b = sum_h P(b,h) D_h qd_h (7.22), along the tree."""
+def tree_operators(
+    K: Any, rate: np.ndarray, D4: np.ndarray, Kh: np.ndarray, with_drift: bool,
+    out: np.ndarray,
+) -> None:
+    """Sum joint operators along the tree: out_b = sum_h P(b,h) (D_h rate_h [+ Kh_h]).
+
+    With the joint velocities and no drift this is omega_b (7.22); with the
+    joint accelerations and the drift terms Kh it is alpha_b (8.52).
+    """
     for k in range(K.order.shape[0]):
         b = K.order[k]
         h = K.pj[b]
         for i in range(4):
             for j in range(4):
-                omega[b, i, j] = 0.0
+                out[b, i, j] = 0.0
         if h < 0:
             continue
         pb = K.pb[b]
@@ -749,10 +756,10 @@ def body_velocities(K: Any, qd: np.ndarray, D4: np.ndarray, omega: np.ndarray) -
         a0 = K.jq0[h]
         for i in range(3):
             for j in range(4):
-                s = omega[pb, i, j]
+                s = Kh[h, i, j] if with_drift else 0.0
                 for g in range(K.jnv[h]):
-                    s += sg * D4[a0 + g, i, j] * qd[a0 + g]
-                omega[b, i, j] = s
+                    s += D4[a0 + g, i, j] * rate[a0 + g]
+                out[b, i, j] = out[pb, i, j] + sg * s
 
 
 @njit
@@ -782,30 +789,6 @@ def drift_terms(
 
 
 @njit
-def body_accelerations(
-    K: Any, qdd: np.ndarray, D4: np.ndarray, Kh: np.ndarray, alpha: np.ndarray
-) -> None:
-    """alpha_b = sum_h P(b,h) (D_h qdd_h + Kh_h) (8.52), along the tree."""
-    for k in range(K.order.shape[0]):
-        b = K.order[k]
-        h = K.pj[b]
-        for i in range(4):
-            for j in range(4):
-                alpha[b, i, j] = 0.0
-        if h < 0:
-            continue
-        pb = K.pb[b]
-        sg = float(K.psign[b])
-        a0 = K.jq0[h]
-        for i in range(3):
-            for j in range(4):
-                s = Kh[h, i, j]
-                for g in range(K.jnv[h]):
-                    s += D4[a0 + g, i, j] * qdd[a0 + g]
-                alpha[b, i, j] = alpha[pb, i, j] + sg * s
-
-
-@njit
 def joint_rates(
     K: Any, q: np.ndarray, dcols: np.ndarray, G: np.ndarray, psid: np.ndarray,
     psidd: np.ndarray, T: np.ndarray, prow: np.ndarray, pcol: np.ndarray, rank: int,
@@ -829,7 +812,7 @@ def joint_rates(
             s += G[c, j] * psid[j]
         qd[c] = s
     operators(K, q, A, D4, B4)
-    body_velocities(K, qd, D4, omega)
+    tree_operators(K, qd, D4, Kh, False, omega)
     drift_terms(K, qd, D4, B4, omega, Kh)
     b = np.zeros(m)
     six = np.empty(6)
@@ -899,9 +882,9 @@ def rates_of(
         joint_transforms(K, Qs[s], Phi, Tj, scr)
         postures(K, Tj, T0_out[s], A, scr)
         operators(K, Qs[s], A, D4, B4)
-        body_velocities(K, QDs[s], D4, omega_out[s])
+        tree_operators(K, QDs[s], D4, Kh, False, omega_out[s])
         drift_terms(K, QDs[s], D4, B4, omega_out[s], Kh)
-        body_accelerations(K, QDDs[s], D4, Kh, alpha_out[s])
+        tree_operators(K, QDDs[s], D4, Kh, True, alpha_out[s])
 
 
 @njit
