@@ -413,27 +413,28 @@ def normalise_er(K: Any, q: np.ndarray) -> None:
                 q[e0 + t] /= s
 
 
+@njit
+def work_arrays(K: Any, nq: int) -> tuple:
+    """Scratch arrays of one solver, in the order the kernels take them.
+
+    (Phi, Tj, T0, A, Dh, J, E, T, prow, pcol, dq, Qb, scr, used)
+    """
+    nj = K.jcode.shape[0]
+    nb = K.order.shape[0]
+    m = 6 * K.L.shape[0] + K.er.shape[0]
+    return (np.zeros((nj, 4, 4)), np.zeros((nj, 4, 4)), np.zeros((nb, 4, 4)),
+            np.zeros((nj, 4, 4)), np.zeros((max(nq, 1), 6)), np.zeros((m, nq)), np.zeros(m),
+            np.zeros((m, nq + m + 1)), np.zeros(max(m, 1), np.int64),
+            np.zeros(max(m, 1), np.int64), np.zeros(nq), np.zeros((MAXV, 4, 4)),
+            np.zeros((8, 4, 4)), np.zeros(m + nq + 1, np.bool_))
+
+
 class Work:
     """Scratch arrays of one solver (allocated once per sweep, reused every step)."""
 
     def __init__(self, K: Any, nq: int) -> None:
-        nj = K.jcode.shape[0]
-        nb = K.order.shape[0]
-        m = 6 * K.L.shape[0] + K.er.shape[0]
-        self.Phi = np.zeros((nj, 4, 4))
-        self.Tj = np.zeros((nj, 4, 4))
-        self.T0 = np.zeros((nb, 4, 4))
-        self.A = np.zeros((nj, 4, 4))
-        self.Dh = np.zeros((max(nq, 1), 6))
-        self.J = np.zeros((m, nq))
-        self.E = np.zeros(m)
-        self.T = np.zeros((m, nq + m + 1))
-        self.prow = np.zeros(max(m, 1), np.int64)
-        self.pcol = np.zeros(max(m, 1), np.int64)
-        self.dq = np.zeros(nq)
-        self.Qb = np.zeros((MAXV, 4, 4))
-        self.scr = np.zeros((8, 4, 4))
-        self.used = np.zeros(m + nq + 1, np.bool_)
+        (self.Phi, self.Tj, self.T0, self.A, self.Dh, self.J, self.E, self.T, self.prow,
+         self.pcol, self.dq, self.Qb, self.scr, self.used) = work_arrays(K, nq)
 
     def as_tuple(self) -> tuple[np.ndarray, ...]:
         """The arrays in the order the kernels take them."""
@@ -1484,28 +1485,12 @@ def batch_kernel(
     """
     nv = q0s.shape[0]
     nq = q0s.shape[1]
-    nj = K.jcode.shape[0]
-    nb = K.order.shape[0]
-    m = 6 * K.L.shape[0] + K.er.shape[0]
     for v in prange(nv):
         Kv = KData(K.jcode, K.jnv, K.jq0, K.jc0, K.jb1, K.jb2, S1s[v], S2s[v], S2invs[v],
                    consts[v], K.order, K.pj, K.pb, K.psign, Trefs[v], K.chord, K.L, K.P,
                    K.er, K.vjoint, K.ptbody, K.ptlocal)
         q = q0s[v].copy()
-        Phi = np.zeros((nj, 4, 4))
-        Tj = np.zeros((nj, 4, 4))
-        T0 = np.zeros((nb, 4, 4))
-        A = np.zeros((nj, 4, 4))
-        Dh = np.zeros((max(nq, 1), 6))
-        J = np.zeros((m, nq))
-        E = np.zeros(m)
-        T = np.zeros((m, nq + m + 1))
-        prow = np.zeros(max(m, 1), np.int64)
-        pcol = np.zeros(max(m, 1), np.int64)
-        dq = np.zeros(nq)
-        Qb = np.zeros((MAXV, 4, 4))
-        scr = np.zeros((8, 4, 4))
-        used = np.zeros(m + nq + 1, np.bool_)
+        Phi, Tj, T0, A, Dh, J, E, T, prow, pcol, dq, Qb, scr, used = work_arrays(Kv, nq)
         dummy2 = np.zeros((1, 1))
         dummy1 = np.zeros(1)
         rd = np.zeros((1, dcols.shape[0]))
