@@ -47,6 +47,21 @@ class CaseRun:
     note: str = ""
 
 
+def per_variant_batch(runs: list[Callable[[], Any]],
+                      outs: list[Callable[[Any], dict[str, np.ndarray]]]) -> CaseRun:
+    """The batch case for a tool that solves one variant at a time from Python."""
+
+    def run() -> list[Any]:
+        return [r() for r in runs]
+
+    def outputs(res: list[Any]) -> dict[str, np.ndarray]:
+        o = [f(r) for f, r in zip(outs, res)]
+        return {k: np.stack([x[k] for x in o]) for k in ("rocker", "P")}
+
+    return CaseRun(run, outputs, postures=mx.NSTEPS * len(runs),
+                   note=f"{len(runs)} of 1000 variants")
+
+
 @dataclass
 class Context:
     nvariants: int = 1000  # variants in the batch case (a tool may use fewer: see tools)

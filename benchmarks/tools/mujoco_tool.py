@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from benchmarks import mechanisms as mx
-from benchmarks.harness import CaseRun
+from benchmarks.harness import CaseRun, per_variant_batch
 
 NAME = "mujoco"
 TOL = 1e-12
@@ -291,16 +291,7 @@ def case_batch(ctx) -> CaseRun:
     variants = mx.fourbar_variants(ctx.nvariants)
     runs = [_fourbar_run(_fourbar_loop(fb), fb) for fb in variants]
     outs = [_fourbar_outputs(fb) for fb in variants]
-
-    def run():
-        return [r() for r in runs]
-
-    def outputs(res):
-        o = [f(r) for f, r in zip(outs, res)]
-        return {"rocker": np.stack([x["rocker"] for x in o]), "P": np.stack([x["P"] for x in o])}
-
-    return CaseRun(run, outputs, postures=mx.NSTEPS * len(variants),
-                   note=f"{len(variants)} of 1000 variants")
+    return per_variant_batch(runs, outs)
 
 
 CASES = {

@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from benchmarks import mechanisms as mx
-from benchmarks.harness import CaseRun
+from benchmarks.harness import CaseRun, per_variant_batch
 
 NAME = "pinocchio"
 TOL = 1e-12
@@ -309,16 +309,7 @@ def case_batch(ctx) -> CaseRun:
         loop, fP, fC = _fourbar_loop(fb)
         runs.append(_fourbar_run(loop, fP, fC, fb))
         outs.append(_fourbar_outputs(fb))
-
-    def run():
-        return [r() for r in runs]
-
-    def outputs(res):
-        o = [f(r) for f, r in zip(outs, res)]
-        return {"rocker": np.stack([x["rocker"] for x in o]), "P": np.stack([x["P"] for x in o])}
-
-    return CaseRun(run, outputs, postures=mx.NSTEPS * len(variants),
-                   note=f"{len(variants)} of 1000 variants")
+    return per_variant_batch(runs, outs)
 
 
 CASES = {

@@ -1021,11 +1021,7 @@ def _graphics(prep: Prepared, sol: Solution, run: io.Run, ctx: Context) -> None:
     wants = g.animate or plots
     if not wants:
         return
-    if ctx.out_dir is None:
-        if not ctx.graphics_note:
-            ctx.graphics_note = True
-            ctx.notes("graphics statements (DRAW, ANIMATE, PLOT ...) were accepted but not "
-                      "rendered: give --out DIR to write plots and animations")
+    if not _can_render(ctx):
         return
     _interactive_note(st, ctx)
     viz = ctx.get_viz()
@@ -1046,6 +1042,17 @@ def _graphics(prep: Prepared, sol: Solution, run: io.Run, ctx: Context) -> None:
                   "results are not affected")
 
 
+def _can_render(ctx: Context) -> bool:
+    """True with --out; otherwise say once that graphics were accepted but not rendered."""
+    if ctx.out_dir is not None:
+        return True
+    if not ctx.graphics_note:
+        ctx.graphics_note = True
+        ctx.notes("graphics statements (DRAW, ANIMATE, PLOT ...) were accepted but not "
+                  "rendered: give --out DIR to write plots and animations")
+    return False
+
+
 def _interactive_note(state: State, ctx: Context) -> None:
     if state.graphics.interactive and not ctx.interactive_note:
         ctx.interactive_note = True
@@ -1056,11 +1063,7 @@ def _interactive_note(state: State, ctx: Context) -> None:
 
 
 def _draw(state: State, where: tuple[str, int], ctx: Context) -> None:
-    if ctx.out_dir is None:
-        if not ctx.graphics_note:
-            ctx.graphics_note = True
-            ctx.notes("graphics statements (DRAW, ANIMATE, PLOT ...) were accepted but not "
-                      "rendered: give --out DIR to write plots and animations")
+    if not _can_render(ctx):
         return
     _interactive_note(state, ctx)
     viz = ctx.get_viz()
