@@ -59,7 +59,15 @@ def njit(*args: Any, **kwargs: Any) -> Any:
     """Compile a function in nopython mode with an on-disk cache (or leave it as is).
 
     Usable bare (``@njit``) or with numba options (``@njit(parallel=True)``).
+    ``nrt=False`` compiles without numba's reference counting: for kernels
+    that allocate nothing, whose array arguments the caller keeps alive.  In
+    the hot loops the atomic reference counts of every array view and
+    argument otherwise cost more than the arithmetic.
     """
+    # explicit either way: numba lets a callee without the option inherit
+    # its caller's, and the joint functions that allocate must keep NRT even
+    # when called from a kernel without it
+    kwargs["_nrt"] = kwargs.pop("nrt", True)
     kwargs.setdefault("cache", True)
     kwargs.setdefault("nogil", True)
 

@@ -242,7 +242,7 @@ def _er_dQ(out: np.ndarray, g: int, i: int) -> None:
 # =============================================================================
 # Kernels: Phi, Q, dQ for every code
 # =============================================================================
-@njit(inline="always")
+@njit
 def joint_phi(code: int, q: np.ndarray, c: np.ndarray, out: np.ndarray) -> None:
     """Joint matrix Phi(q) of a joint of kind ``code`` with constants ``c``."""
     if code == REVOLUTE:
@@ -275,7 +275,7 @@ def joint_phi(code: int, q: np.ndarray, c: np.ndarray, out: np.ndarray) -> None:
         _eye(out)
 
 
-@njit(inline="always")
+@njit
 def joint_Q(code: int, q: np.ndarray, c: np.ndarray, out: np.ndarray) -> None:
     """Derivative operators Q_g (g = 0..nvar-1) into ``out[g]`` (shape (MAXV, 4, 4))."""
     nv = _nvar(code)

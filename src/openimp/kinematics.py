@@ -29,9 +29,12 @@ import numpy as np
 from openimp._jit import njit, prange
 from openimp.errors import AnalysisError, InputError
 from openimp.joints import (
+    CYLINDER,
     MAXV,
     PRISMATIC,
     REVOLUTE,
+    RIGID,
+    SCREW,
     SPHERE,
     SPHERE_GROOVE,
     SPHERE_PLANE,
@@ -116,131 +119,148 @@ def gen_inv4(a: np.ndarray, out: np.ndarray) -> None:
 # Postures and loop equations
 # =============================================================================
 @njit(inline="always")
-def joint_transforms(
-    K: Any, q: np.ndarray, Phi: np.ndarray, Tj: np.ndarray, scr: np.ndarray
-) -> None:
-    """Phi_h and T_{h-,h+} = S_{h-,h} Phi_h S_{h+,h}^-1 (5.4) of every joint."""
-    tmp = scr[0]
-    for h in range(K.jcode.shape[0]):
-        a = K.jq0[h]
-        c0 = K.jc0[h]
-        joint_phi(K.jcode[h], q[a:a + K.jnv[h]], K.const[c0:], Phi[h])
-        mul4(K.S1[h], Phi[h], tmp)
-        mul4(tmp, K.S2inv[h], Tj[h])
+def mm4(a: np.ndarray, ia: int, b: np.ndarray, ib: int, out: np.ndarray, io: int) -> None:
+    """out[io] = a[ia] @ b[ib] for stacks of homogeneous 4x4 matrices.
+
+    Indices instead of views: a view made inside a loop that also calls
+    other kernels costs a pair of atomic reference counts.  ``out`` may be
+    ``a`` (same index: each row of a is read before it is written), not ``b``.
+    """
+    for i in range(3):
+        x0 = a[ia, i, 0]
+        x1 = a[ia, i, 1]
+        x2 = a[ia, i, 2]
+        x3 = a[ia, i, 3]
+        for j in range(4):
+            out[io, i, j] = x0 * b[ib, 0, j] + x1 * b[ib, 1, j] + x2 * b[ib, 2, j]
+        out[io, i, 3] += x3
+    out[io, 3, 0] = 0.0
+    out[io, 3, 1] = 0.0
+    out[io, 3, 2] = 0.0
+    out[io, 3, 3] = 1.0
 
 
 @njit(inline="always")
-def postures(K: Any, Tj: np.ndarray, T0: np.ndarray, A: np.ndarray, scr: np.ndarray) -> None:
-    """T_0b of every body along the tree, and A_h = T_{0h-} S_{h-,h} of every joint."""
-    tmp = scr[0]
+def right_phi(
+    code: int, q: np.ndarray, a0: int, M: np.ndarray, im: int, W: np.ndarray, iw: int,
+    inverse: bool, Phi: np.ndarray, h: int, scr: np.ndarray,
+) -> None:
+    """W[iw] = M[im] Phi_h(q) (or M[im] Phi_h^-1 with ``inverse``) for joint h of kind ``code``.
+
+    Rigid, revolute, prismatic and cylindric joints touch only the columns
+    their Phi moves (two columns for a rotation about z, the last for a slide
+    along z); the other kinds use ``Phi[h]``, computed beforehand by
+    :func:`general_phis` into ``Phi[h]``.  ``W`` and ``M`` must be different arrays.
+    """
+    if code == REVOLUTE or code == PRISMATIC or code == CYLINDER or code == RIGID:
+        th = 0.0
+        d = 0.0
+        if code == PRISMATIC:
+            d = q[a0]
+        elif code != RIGID:
+            th = q[a0]
+            if code == CYLINDER:
+                d = q[a0 + 1]
+        if inverse:  # Rz(th) Tz(d) inverts to Rz(-th) Tz(-d): both act along z
+            th = -th
+            d = -d
+        ca = math.cos(th)
+        sa = math.sin(th)
+        for i in range(3):
+            m0 = M[im, i, 0]
+            m1 = M[im, i, 1]
+            m2 = M[im, i, 2]
+            W[iw, i, 0] = ca * m0 + sa * m1
+            W[iw, i, 1] = ca * m1 - sa * m0
+            W[iw, i, 2] = m2
+            W[iw, i, 3] = M[im, i, 3] + d * m2
+        W[iw, 3, 0] = 0.0
+        W[iw, 3, 1] = 0.0
+        W[iw, 3, 2] = 0.0
+        W[iw, 3, 3] = 1.0
+    elif inverse:
+        gen_inv4(Phi[h], scr[7])
+        mm4(M, im, scr, 7, W, iw)
+    else:
+        mm4(M, im, Phi, h, W, iw)
+
+
+@njit(nrt=False)
+def general_phis(K: Any, q: np.ndarray, scr: np.ndarray) -> None:
+    """Phi_h of every joint of a general kind (K.gen) into scr[8 + h], through joint_phi.
+
+    Kept out of the tree loop: a loop without calls lets numba drop the
+    reference counting of the arrays it touches.
+    """
+    for k in range(K.gen.shape[0]):
+        h = K.gen[k]
+        a0 = K.jq0[h]
+        joint_phi(K.jcode[h], q[a0:a0 + K.jnv[h]], K.const[K.jc0[h]:], scr[8 + h])
+
+
+@njit(nrt=False)
+def tree_pass(
+    K: Any, q: np.ndarray, A: np.ndarray, T0: np.ndarray, E: np.ndarray, scr: np.ndarray
+) -> float:
+    """One pass along the tree and the chords: postures, A_h and the loop residuals.
+
+    T_0b of every body (5.4, 5.5) follows its parent joint h:
+    A_h = T_{0h-} S_{h-,h} and T_0b = A_h Phi_h S_{h+,h}^-1 (or, against the
+    joint's direction, A_h = T_{0h+} S_{h+,h} Phi_h^-1 and T_0b = A_h
+    S_{h-,h}^-1).  Loop i closes its chord c from body b to body d:
+    F = T_0b S_{c-,c} Phi_c S_{c+,c}^-1 T_0d^-1 = I, and E holds F - I taken
+    through the false-solution guard (6.48), then the Euler-Rodrigues rows
+    (6.43).  Returns max |E|.  Scratch: scr[0..2] and scr[7]; Phi_h of the
+    general kinds goes to scr[8 + h].
+    """
+    if K.gen.shape[0] > 0:
+        general_phis(K, q, scr)
     for k in range(K.order.shape[0]):
         b = K.order[k]
         h = K.pj[b]
         if h < 0:
-            # element-wise: a slice assignment would allocate (numba's overlap check)
             for r in range(4):
                 for c in range(4):
                     T0[b, r, c] = K.Tref[b, r, c]
         elif K.psign[b] > 0:
-            mul4(T0[K.jb1[h]], Tj[h], T0[b])
+            mm4(T0, K.jb1[h], K.S1, h, A, h)
+            right_phi(K.jcode[h], q, K.jq0[h], A, h, scr, 0, False, scr, 8 + h, scr)
+            mm4(scr, 0, K.S2inv, h, T0, b)
         else:
-            gen_inv4(Tj[h], tmp)
-            mul4(T0[K.jb2[h]], tmp, T0[b])
-    for h in range(K.jcode.shape[0]):
-        mul4(T0[K.jb1[h]], K.S1[h], A[h])
-
-
-@njit(inline="always")
-def screw_columns(
-    K: Any, q: np.ndarray, A: np.ndarray, Dh: np.ndarray, Qb: np.ndarray, scr: np.ndarray
-) -> None:
-    """Screw coordinates (6.41) of D = A Q A^-1 for every joint variable, into Dh[nq, 6]."""
-    RM = scr[1]
-    Mp = scr[2]
-    for h in range(K.jcode.shape[0]):
-        nv = K.jnv[h]
-        if nv == 0:
-            continue
-        a0 = K.jq0[h]
-        code = K.jcode[h]
-        Ah = A[h]
-        if code == REVOLUTE:
-            # Q = skew(e3): D is the unit rotation about w = R e3 through p,
-            # screw coordinates [p x w, w]
-            wx, wy, wz = Ah[0, 2], Ah[1, 2], Ah[2, 2]
-            px, py, pz = Ah[0, 3], Ah[1, 3], Ah[2, 3]
-            Dh[a0, 0] = py * wz - pz * wy
-            Dh[a0, 1] = pz * wx - px * wz
-            Dh[a0, 2] = px * wy - py * wx
-            Dh[a0, 3] = wx
-            Dh[a0, 4] = wy
-            Dh[a0, 5] = wz
-            continue
-        if code == PRISMATIC:
-            # Q = E34: a unit translation along w = R e3
-            Dh[a0, 0] = Ah[0, 2]
-            Dh[a0, 1] = Ah[1, 2]
-            Dh[a0, 2] = Ah[2, 2]
-            Dh[a0, 3] = 0.0
-            Dh[a0, 4] = 0.0
-            Dh[a0, 5] = 0.0
-            continue
-        joint_Q(code, q[a0:a0 + nv], K.const[K.jc0[h]:], Qb)
-        for g in range(nv):
-            Qg = Qb[g]
-            # M' = R M R^T (only the three skew entries are needed)
-            for i in range(3):
-                for j in range(3):
-                    RM[i, j] = Ah[i, 0] * Qg[0, j] + Ah[i, 1] * Qg[1, j] + Ah[i, 2] * Qg[2, j]
-            for i in range(3):
-                for j in range(3):
-                    Mp[i, j] = RM[i, 0] * Ah[j, 0] + RM[i, 1] * Ah[j, 1] + RM[i, 2] * Ah[j, 2]
-            col = a0 + g
-            for i in range(3):
-                # column 4: R v - M' p
-                Dh[col, i] = (
-                    Ah[i, 0] * Qg[0, 3] + Ah[i, 1] * Qg[1, 3] + Ah[i, 2] * Qg[2, 3]
-                    - (Mp[i, 0] * Ah[0, 3] + Mp[i, 1] * Ah[1, 3] + Mp[i, 2] * Ah[2, 3])
-                )
-            Dh[col, 3] = Mp[2, 1]
-            Dh[col, 4] = Mp[0, 2]
-            Dh[col, 5] = Mp[1, 0]
-
-
-@njit(inline="always")
-def loop_residual(
-    K: Any, q: np.ndarray, T0: np.ndarray, Tj: np.ndarray, E: np.ndarray, scr: np.ndarray,
-) -> float:
-    """Right-hand side E of J dq = E (6.40, 6.43); returns max |E|.
-
-    Loop i closes chord c from body b to body d:  F = T_0b T_c T_0d^-1 = I.
-    Its first-order expansion is  sum_h L(i,h) D_h dphi_h = F - I  with the
-    loop row L = P(d) - P(b) - e_c, so E_i = F - I, taken through the
-    false-solution guard (6.48).
-    """
-    nl = K.L.shape[0]
-    F = scr[3]
-    tmp = scr[4]
-    inv_d = scr[5]
+            mm4(T0, K.jb2[h], K.S2, h, scr, 0)
+            right_phi(K.jcode[h], q, K.jq0[h], scr, 0, A, h, True, scr, 8 + h, scr)
+            mm4(A, h, K.S1inv, h, T0, b)
     err = 0.0
-    for i in range(nl):
+    for i in range(K.chord.shape[0]):
         ch = K.chord[i]
-        mul4(T0[K.jb1[ch]], Tj[ch], tmp)
-        inv4(T0[K.jb2[ch]], inv_d)
-        mul4(tmp, inv_d, F)
+        d = K.jb2[ch]
+        mm4(T0, K.jb1[ch], K.S1, ch, A, ch)
+        right_phi(K.jcode[ch], q, K.jq0[ch], A, ch, scr, 0, False, scr, 8 + ch, scr)
+        mm4(scr, 0, K.S2inv, ch, scr, 0)
+        # rigid inverse of T_0d into scr[2]
+        for r in range(3):
+            for c in range(3):
+                scr[2, r, c] = T0[d, c, r]
+        for r in range(3):
+            scr[2, r, 3] = -(T0[d, 0, r] * T0[d, 0, 3] + T0[d, 1, r] * T0[d, 1, 3]
+                             + T0[d, 2, r] * T0[d, 2, 3])
+        mm4(scr, 0, scr, 2, scr, 1)
         r0 = 6 * i
-        E[r0 + 0] = F[0, 3]
-        E[r0 + 1] = F[1, 3]
-        E[r0 + 2] = F[2, 3]
+        E[r0 + 0] = scr[1, 0, 3]
+        E[r0 + 1] = scr[1, 1, 3]
+        E[r0 + 2] = scr[1, 2, 3]
         # (6.48): the diagonal terms (cos-1, second order near a true closure)
         # push the iteration away from a false solution with 180 deg errors.
-        E[r0 + 3] = F[2, 1] + (F[1, 1] - 1.0) + (F[2, 2] - 1.0)
-        E[r0 + 4] = F[0, 2] + (F[0, 0] - 1.0) + (F[2, 2] - 1.0)
-        E[r0 + 5] = F[1, 0] + (F[1, 1] - 1.0) + (F[0, 0] - 1.0)
+        f00 = scr[1, 0, 0] - 1.0
+        f11 = scr[1, 1, 1] - 1.0
+        f22 = scr[1, 2, 2] - 1.0
+        E[r0 + 3] = scr[1, 2, 1] + f11 + f22
+        E[r0 + 4] = scr[1, 0, 2] + f00 + f22
+        E[r0 + 5] = scr[1, 1, 0] + f11 + f00
         for k in range(6):
             if abs(E[r0 + k]) > err:
                 err = abs(E[r0 + k])
-    r = 6 * nl
+    r = 6 * K.chord.shape[0]
     for k in range(K.er.shape[0]):
         e0 = K.er[k]
         s = 0.0
@@ -252,7 +272,81 @@ def loop_residual(
     return err
 
 
-@njit(inline="always")
+@njit(nrt=False)
+def screw_columns(
+    K: Any, q: np.ndarray, A: np.ndarray, Dh: np.ndarray, Qb: np.ndarray, scr: np.ndarray
+) -> None:
+    """Screw coordinates (6.41) of D = A Q A^-1 for every joint variable, into Dh[nq, 6].
+
+    Revolute, prismatic and cylindric columns in closed form: the unit
+    rotation about w = R e3 through p has [p x w, w], the unit slide [w, 0].
+    """
+    for h in range(K.jcode.shape[0]):
+        nv = K.jnv[h]
+        if nv == 0:
+            continue
+        a0 = K.jq0[h]
+        code = K.jcode[h]
+        if code == REVOLUTE or code == PRISMATIC or code == CYLINDER:
+            wx = A[h, 0, 2]
+            wy = A[h, 1, 2]
+            wz = A[h, 2, 2]
+            c = a0
+            if code != PRISMATIC:
+                px = A[h, 0, 3]
+                py = A[h, 1, 3]
+                pz = A[h, 2, 3]
+                Dh[a0, 0] = py * wz - pz * wy
+                Dh[a0, 1] = pz * wx - px * wz
+                Dh[a0, 2] = px * wy - py * wx
+                Dh[a0, 3] = wx
+                Dh[a0, 4] = wy
+                Dh[a0, 5] = wz
+                c = a0 + 1
+            if code != REVOLUTE:
+                Dh[c, 0] = wx
+                Dh[c, 1] = wy
+                Dh[c, 2] = wz
+                Dh[c, 3] = 0.0
+                Dh[c, 4] = 0.0
+                Dh[c, 5] = 0.0
+    for k in range(K.gen.shape[0]):
+        h = K.gen[k]
+        _screw_general(K.jcode[h], q, K.jq0[h], K.jnv[h], K.const, K.jc0[h], A, h, Dh, Qb, scr)
+
+
+@njit(nrt=False)
+def _screw_general(
+    code: int, q: np.ndarray, a0: int, nv: int, const: np.ndarray, c0: int, A: np.ndarray,
+    h: int, Dh: np.ndarray, Qb: np.ndarray, scr: np.ndarray,
+) -> None:
+    """Screw coordinates of A_h Q_g A_h^-1 for a joint of any kind (through joint_Q)."""
+    RM = scr[4]
+    Mp = scr[5]
+    Ah = A[h]
+    joint_Q(code, q[a0:a0 + nv], const[c0:], Qb)
+    for g in range(nv):
+        Qg = Qb[g]
+        # M' = R M R^T (only the three skew entries are needed)
+        for i in range(3):
+            for j in range(3):
+                RM[i, j] = Ah[i, 0] * Qg[0, j] + Ah[i, 1] * Qg[1, j] + Ah[i, 2] * Qg[2, j]
+        for i in range(3):
+            for j in range(3):
+                Mp[i, j] = RM[i, 0] * Ah[j, 0] + RM[i, 1] * Ah[j, 1] + RM[i, 2] * Ah[j, 2]
+        col = a0 + g
+        for i in range(3):
+            # column 4: R v - M' p
+            Dh[col, i] = (
+                Ah[i, 0] * Qg[0, 3] + Ah[i, 1] * Qg[1, 3] + Ah[i, 2] * Qg[2, 3]
+                - (Mp[i, 0] * Ah[0, 3] + Mp[i, 1] * Ah[1, 3] + Mp[i, 2] * Ah[2, 3])
+            )
+        Dh[col, 3] = Mp[2, 1]
+        Dh[col, 4] = Mp[0, 2]
+        Dh[col, 5] = Mp[1, 0]
+
+
+@njit(nrt=False)
 def loop_jacobian(
     K: Any, q: np.ndarray, A: np.ndarray, Dh: np.ndarray, J: np.ndarray, Qb: np.ndarray,
     scr: np.ndarray,
@@ -283,45 +377,31 @@ def loop_jacobian(
             J[r + k, e0 + t] = 2.0 * q[e0 + t]
 
 
-@njit(inline="always")
-def loop_equations(
-    K: Any, q: np.ndarray, T0: np.ndarray, A: np.ndarray, Tj: np.ndarray,
-    Dh: np.ndarray, J: np.ndarray, E: np.ndarray, Qb: np.ndarray, scr: np.ndarray,
-) -> float:
-    """Jacobian J and right-hand side E of J dq = E (6.45); returns max |E|."""
-    loop_jacobian(K, q, A, Dh, J, Qb, scr)
-    return loop_residual(K, q, T0, Tj, E, scr)
-
-
-@njit(inline="always")
+@njit(nrt=False)
 def gauss_jordan(
-    J: np.ndarray, E: np.ndarray, sgc: np.ndarray, tol: float,
-    T: np.ndarray, prow: np.ndarray, pcol: np.ndarray, used: np.ndarray, aug: bool,
+    J: np.ndarray, E: np.ndarray, sgc: np.ndarray, tol: float, T: np.ndarray,
+    prow: np.ndarray, pcol: np.ndarray, pinv: np.ndarray, mult: np.ndarray, used: np.ndarray,
 ) -> tuple[int, float, float]:
     """Restricted complete-pivoting Gauss-Jordan elimination (book 6.5.3).
 
-    The tableau ``T`` (m x (n + m + 1)) receives [J | I | E] reduced in place:
-    pivot row ``prow[k]`` holds, in the columns of J, a unit at ``pcol[k]`` and
-    the by-products J11^-1 J12 (free columns) and J11^-1 J13 (specified
-    columns); in the next m columns J11^-1 (pivot rows) and -J21 J11^-1
-    (other rows); in the last the solution.  Columns with ``sgc`` true are
-    never pivoted.  ``used`` is boolean scratch of length m + n.  Without
-    ``aug`` the identity block is neither formed nor reduced (positions only
-    need the by-products in the columns of J and the solution).  Returns the
-    rank, the quality index |det J11| and the largest entry left unpivoted
-    (below ``tol``; 0 when the elimination ran out of rows or columns).
+    The tableau ``T`` (m x (n + 1)) receives [J | E] reduced in place: pivot
+    row ``prow[k]`` holds, in the columns of J, a unit at ``pcol[k]`` and the
+    by-products J11^-1 J12 (free columns) and J11^-1 J13 (specified columns);
+    in the last column the solution.  Columns with ``sgc`` true are never
+    pivoted.  The row operations are kept (``pinv[k]`` = 1 / pivot k,
+    ``mult[k, r]`` = the multiple of pivot row k taken from row r), so
+    :func:`replay` applies J11^-1 to any other right-hand side without a
+    second elimination.  ``used`` is boolean scratch of length m + n.
+    Returns the rank, the quality index |det J11| and the largest entry left
+    unpivoted (below ``tol``; 0 when the elimination ran out of rows or
+    columns).
     """
     m = J.shape[0]
     n = J.shape[1]
-    rhs = n + m
     for r in range(m):
         for c in range(n):
             T[r, c] = J[r, c]
-        if aug:
-            for c in range(n, n + m):
-                T[r, c] = 0.0
-            T[r, n + r] = 1.0
-        T[r, rhs] = E[r]
+        T[r, n] = E[r]
     rowused = used[:m]
     colused = used[m:m + n]
     for r in range(m):
@@ -354,29 +434,43 @@ def gauss_jordan(
         prow[k] = br
         pcol[k] = bc
         rank += 1
-        piv = T[br, bc]
+        inv = 1.0 / T[br, bc]
+        pinv[k] = inv
         det *= best
-        inv = 1.0 / piv
-        for c in range(n):
+        for c in range(n + 1):
             T[br, c] *= inv
-        T[br, rhs] *= inv
-        if aug:
-            for c in range(n, n + m):
-                T[br, c] *= inv
         T[br, bc] = 1.0
         for r in range(m):
             if r == br:
+                mult[k, r] = 0.0
                 continue
             f = T[r, bc]
+            mult[k, r] = f
             if f != 0.0:
-                for c in range(n):
+                for c in range(n + 1):
                     T[r, c] -= f * T[br, c]
-                T[r, rhs] -= f * T[br, rhs]
-                if aug:
-                    for c in range(n, n + m):
-                        T[r, c] -= f * T[br, c]
                 T[r, bc] = 0.0
     return rank, det, rest
+
+
+@njit(nrt=False)
+def replay(
+    prow: np.ndarray, pinv: np.ndarray, mult: np.ndarray, rank: int, e: np.ndarray
+) -> None:
+    """Apply the row operations of the last elimination to the right-hand side ``e``.
+
+    Afterwards e[prow[k]] is component pcol[k] of J11^-1 e (the same as the
+    augmented identity block of book 6.5.3 would give) and the other rows
+    hold what the dependent equations leave unexplained (8.45).
+    """
+    m = e.shape[0]
+    for k in range(rank):
+        br = prow[k]
+        v = e[br] * pinv[k]
+        e[br] = v
+        if v != 0.0:
+            for r in range(m):
+                e[r] -= mult[k, r] * v
 
 
 @njit
@@ -399,7 +493,7 @@ def sgc_residual(T: np.ndarray, sgc: np.ndarray, prow: np.ndarray, rank: int, n:
     return worst
 
 
-@njit(inline="always")
+@njit(nrt=False)
 def normalise_er(K: Any, q: np.ndarray) -> None:
     """Put every Euler-Rodrigues block back on the unit sphere (digest 9.27)."""
     for k in range(K.er.shape[0]):
@@ -417,86 +511,86 @@ def normalise_er(K: Any, q: np.ndarray) -> None:
 def work_arrays(K: Any, nq: int) -> tuple:
     """Scratch arrays of one solver, in the order the kernels take them.
 
-    (Phi, Tj, T0, A, Dh, J, E, T, prow, pcol, dq, Qb, scr, used)
+    (T0, A, Dh, J, E, T, prow, pcol, pinv, mult, dq, Qb, scr, used); scr holds
+    8 matrices of scratch and then Phi_h of every joint of a general kind.
     """
     nj = K.jcode.shape[0]
     nb = K.order.shape[0]
     m = 6 * K.L.shape[0] + K.er.shape[0]
-    return (np.zeros((nj, 4, 4)), np.zeros((nj, 4, 4)), np.zeros((nb, 4, 4)),
-            np.zeros((nj, 4, 4)), np.zeros((max(nq, 1), 6)), np.zeros((m, nq)), np.zeros(m),
-            np.zeros((m, nq + m + 1)), np.zeros(max(m, 1), np.int64),
-            np.zeros(max(m, 1), np.int64), np.zeros(nq), np.zeros((MAXV, 4, 4)),
-            np.zeros((8, 4, 4)), np.zeros(m + nq + 1, np.bool_))
+    k = max(min(m, nq), 1)
+    return (np.zeros((nb, 4, 4)), np.zeros((nj, 4, 4)), np.zeros((max(nq, 1), 6)),
+            np.zeros((m, nq)), np.zeros(m), np.zeros((m, nq + 1)),
+            np.zeros(k, np.int64), np.zeros(k, np.int64), np.zeros(k), np.zeros((k, m)),
+            np.zeros(nq), np.zeros((MAXV, 4, 4)), np.zeros((8 + nj, 4, 4)),
+            np.zeros(m + nq + 1, np.bool_))
 
 
 class Work:
     """Scratch arrays of one solver (allocated once per sweep, reused every step)."""
 
     def __init__(self, K: Any, nq: int) -> None:
-        (self.Phi, self.Tj, self.T0, self.A, self.Dh, self.J, self.E, self.T, self.prow,
-         self.pcol, self.dq, self.Qb, self.scr, self.used) = work_arrays(K, nq)
-
-    def as_tuple(self) -> tuple[np.ndarray, ...]:
-        """The arrays in the order the kernels take them."""
-        return (self.Phi, self.Tj, self.T0, self.A, self.Dh, self.J, self.E, self.T,
-                self.prow, self.pcol, self.dq, self.Qb, self.scr, self.used)
+        (self.T0, self.A, self.Dh, self.J, self.E, self.T, self.prow, self.pcol, self.pinv,
+         self.mult, self.dq, self.Qb, self.scr, self.used) = work_arrays(K, nq)
 
     def eval_tuple(self) -> tuple[np.ndarray, ...]:
         """The arrays :func:`evaluate` takes."""
-        return (self.Phi, self.Tj, self.T0, self.A, self.Dh, self.J, self.E, self.T,
-                self.prow, self.pcol, self.Qb, self.scr, self.used)
+        return (self.T0, self.A, self.Dh, self.J, self.E, self.T, self.prow, self.pcol,
+                self.pinv, self.mult, self.Qb, self.scr, self.used)
 
 
-@njit
+@njit(nrt=False)
 def evaluate(
     K: Any, q: np.ndarray, sgc: np.ndarray, ptol: float,
-    Phi: np.ndarray, Tj: np.ndarray, T0: np.ndarray, A: np.ndarray, Dh: np.ndarray,
-    J: np.ndarray, E: np.ndarray, T: np.ndarray, prow: np.ndarray, pcol: np.ndarray,
-    Qb: np.ndarray, scr: np.ndarray, used: np.ndarray, aug: bool = True,
+    T0: np.ndarray, A: np.ndarray, Dh: np.ndarray, J: np.ndarray, E: np.ndarray,
+    T: np.ndarray, prow: np.ndarray, pcol: np.ndarray, pinv: np.ndarray, mult: np.ndarray,
+    Qb: np.ndarray, scr: np.ndarray, used: np.ndarray,
 ) -> tuple[float, int, float, float]:
     """Postures, loop equations and their elimination at ``q``.
 
     Returns (max|E|, rank, quality, largest unpivoted entry).
     """
-    joint_transforms(K, q, Phi, Tj, scr)
-    postures(K, Tj, T0, A, scr)
-    err = loop_equations(K, q, T0, A, Tj, Dh, J, E, Qb, scr)
-    rank, det, rest = gauss_jordan(J, E, sgc, ptol, T, prow, pcol, used, aug)
+    err = tree_pass(K, q, A, T0, E, scr)
+    loop_jacobian(K, q, A, Dh, J, Qb, scr)
+    rank, det, rest = gauss_jordan(J, E, sgc, ptol, T, prow, pcol, pinv, mult, used)
     return err, rank, det, rest
 
 
-@njit
+@njit(nrt=False)
 def newton(
-    K: Any, q: np.ndarray, sgc: np.ndarray, tol: float, ptol: float, maxit: int,
-    Phi: np.ndarray, Tj: np.ndarray, T0: np.ndarray, A: np.ndarray, Dh: np.ndarray,
-    J: np.ndarray, E: np.ndarray, T: np.ndarray, prow: np.ndarray, pcol: np.ndarray,
-    dq: np.ndarray, Qb: np.ndarray, scr: np.ndarray, used: np.ndarray, aug: bool,
+    K: Any, q: np.ndarray, sgc: np.ndarray, tol: float, ptol: float, maxit: int, chord: bool,
+    T0: np.ndarray, A: np.ndarray, Dh: np.ndarray, J: np.ndarray, E: np.ndarray,
+    T: np.ndarray, prow: np.ndarray, pcol: np.ndarray, pinv: np.ndarray, mult: np.ndarray,
+    dq: np.ndarray, Qb: np.ndarray, scr: np.ndarray, used: np.ndarray,
 ) -> tuple[int, int, int, float, float]:
     """Newton-Raphson on the loop equations (book 6.5); q is updated in place.
 
     Converged when every |E| and every correction is below ``tol`` (internal
-    units).  Returns (status, iterations, rank, quality, largest unpivoted
-    entry); the tableau in ``T`` belongs to the final posture, so its
-    by-products serve the derivatives.
+    units); the last correction is applied.  Returns (status, iterations,
+    rank, quality, largest unpivoted entry).
 
-    Without ``aug`` (positions only) the elimination skips the identity
-    block: the predictor needs only the by-products in the columns of J.
+    With ``chord``, a correction that is already small is followed by
+    simplified-Newton steps that reuse the elimination (:func:`replay`: one
+    pass along the tree, no Jacobian and no pivot search) for as long as
+    they contract at least tenfold; the convergence test is the same, so the
+    posture is as accurate.  The tableau in ``T`` then belongs to a posture
+    one small correction away, which serves the predictor but not the
+    derivatives: sweeps that want rates run without ``chord``, and their
+    tableau belongs to the final posture.
     """
     nq = q.shape[0]
-    m = J.shape[0]
     prev = 1e300
     grow = 0
     rank = 0
     det = 0.0
     rest = 0.0
     for it in range(maxit):
-        err, rank, det, rest = evaluate(K, q, sgc, ptol, Phi, Tj, T0, A, Dh, J, E, T, prow,
-                                        pcol, Qb, scr, used, aug)
+        err, rank, det, rest = evaluate(K, q, sgc, ptol, T0, A, Dh, J, E, T, prow, pcol, pinv,
+                                        mult, Qb, scr, used)
         step = 0.0
         for c in range(nq):
             dq[c] = 0.0
         for k in range(rank):
-            v = T[prow[k], nq + m]
+            v = T[prow[k], nq]
             dq[pcol[k]] = v
             if abs(v) > step:
                 step = abs(v)
@@ -514,10 +608,30 @@ def newton(
         for c in range(nq):
             q[c] += dq[c]
         normalise_er(K, q)
+        if not chord or step > 1e-3:
+            continue
+        for _ in range(4):
+            err = tree_pass(K, q, A, T0, E, scr)
+            replay(prow, pinv, mult, rank, E)
+            last = step
+            step = 0.0
+            for k in range(rank):
+                v = E[prow[k]]
+                if abs(v) > step:
+                    step = abs(v)
+            if err < tol and step < tol:
+                for k in range(rank):
+                    q[pcol[k]] += E[prow[k]]
+                return OK, it + 1, rank, det, rest
+            if step > 0.1 * last:
+                break  # contracting too slowly: a fresh Jacobian
+            for k in range(rank):
+                q[pcol[k]] += E[prow[k]]
+            normalise_er(K, q)
     return MAXITER, maxit, rank, det, rest
 
 
-@njit
+@njit(nrt=False)
 def derivative_matrix(
     T: np.ndarray, prow: np.ndarray, pcol: np.ndarray, rank: int, cols: np.ndarray,
     nq: int, G: np.ndarray,
@@ -542,15 +656,12 @@ def sweep_kernel(
     Qout: np.ndarray, quality: np.ndarray, rank_out: np.ndarray, fgc_out: np.ndarray,
     iters_out: np.ndarray, want_rates: bool, rd: np.ndarray, ad: np.ndarray,
     QDout: np.ndarray, QDDout: np.ndarray, cons_out: np.ndarray,
-    Phi: np.ndarray, Tj: np.ndarray, T0: np.ndarray, A: np.ndarray, Dh: np.ndarray,
-    J: np.ndarray, E: np.ndarray, T: np.ndarray, prow: np.ndarray, pcol: np.ndarray,
-    dq: np.ndarray, Qb: np.ndarray, scr: np.ndarray, used: np.ndarray,
 ) -> tuple[int, int]:
     """Solve every posture of a sweep (book 6.5, 6.9).
 
     ``q`` holds a closed posture on entry.  For step k the specified columns
     ``dcols`` go to ``dvals[k]``: the dependent variables are predicted to
-    first order from the last elimination's by-products (-J11^-1 J13 dpsi),
+    second order from the last eliminations' by-products (-J11^-1 J13 dpsi),
     then corrected by Newton.  A step that fails is retried from the last
     good posture in halves, down to 2^-maxhalve of it.  With ``want_rates``
     the joint velocities and accelerations for the driver rates ``rd[k]`` and
@@ -560,33 +671,48 @@ def sweep_kernel(
     """
     nq = q.shape[0]
     nd = dcols.shape[0]
+    T0, A, Dh, J, E, T, prow, pcol, pinv, mult, dq, Qb, scr, used = work_arrays(K, nq)
+    D4, B4, omega, Kh, dQb, qd, qdd, rhs = rate_arrays(K, nq if want_rates else 0)
+    return _sweep_steps(
+        K, q, sgc, dcols, dvals, tol, ptol, maxit, maxhalve, Qout, quality, rank_out, fgc_out,
+        iters_out, want_rates, rd, ad, QDout, QDDout, cons_out,
+        T0, A, Dh, J, E, T, prow, pcol, pinv, mult, dq, Qb, scr, used,
+        D4, B4, omega, Kh, dQb, qd, qdd, rhs,
+        np.zeros((nq, nd)), np.zeros((nq, nd)), q.copy(), np.zeros(nq, np.bool_),
+        np.zeros(nd), np.zeros(nd))
+
+
+@njit(nrt=False)
+def _sweep_steps(
+    K: Any, q: np.ndarray, sgc: np.ndarray, dcols: np.ndarray, dvals: np.ndarray,
+    tol: float, ptol: float, maxit: int, maxhalve: int,
+    Qout: np.ndarray, quality: np.ndarray, rank_out: np.ndarray, fgc_out: np.ndarray,
+    iters_out: np.ndarray, want_rates: bool, rd: np.ndarray, ad: np.ndarray,
+    QDout: np.ndarray, QDDout: np.ndarray, cons_out: np.ndarray,
+    T0: np.ndarray, A: np.ndarray, Dh: np.ndarray, J: np.ndarray, E: np.ndarray,
+    T: np.ndarray, prow: np.ndarray, pcol: np.ndarray, pinv: np.ndarray, mult: np.ndarray,
+    dq: np.ndarray, Qb: np.ndarray, scr: np.ndarray, used: np.ndarray,
+    D4: np.ndarray, B4: np.ndarray, omega: np.ndarray, Kh: np.ndarray, dQb: np.ndarray,
+    qd: np.ndarray, qdd: np.ndarray, rhs: np.ndarray,
+    G: np.ndarray, Gp: np.ndarray, qtry: np.ndarray, isdriver: np.ndarray,
+    dprev: np.ndarray, dnew: np.ndarray,
+) -> tuple[int, int]:
+    """The step loop of :func:`sweep_kernel` on preallocated arrays (no reference counting)."""
+    nq = q.shape[0]
+    nd = dcols.shape[0]
     nsteps = dvals.shape[0]
-    nj = K.jcode.shape[0]
-    nb = K.order.shape[0]
-    G = np.zeros((nq, nd))
-    qtry = q.copy()
-    nr = nq if want_rates else 1
-    D4 = np.zeros((max(nr, 1), 4, 4))
-    B4 = np.zeros((max(nr, 1), MAXV, 4, 4))
-    omega = np.zeros((nb if want_rates else 1, 4, 4))
-    Kh = np.zeros((nj if want_rates else 1, 4, 4))
-    qd = np.zeros(nq)
-    qdd = np.zeros(nq)
+    chord = not want_rates
     # the elimination at the start posture provides the first predictor
-    st, it, rank, det, rest = newton(K, q, sgc, tol, ptol, maxit, Phi, Tj, T0, A, Dh, J, E,
-                                     T, prow, pcol, dq, Qb, scr, used, want_rates)
+    st, it, rank, det, rest = newton(K, q, sgc, tol, ptol, maxit, False, T0, A, Dh, J, E,
+                                     T, prow, pcol, pinv, mult, dq, Qb, scr, used)
     if st != OK:
         return 0, st
     rank_ref = rank
-    isdriver = np.zeros(nq, np.bool_)
     for j in range(nd):
         isdriver[dcols[j]] = True
     derivative_matrix(T, prow, pcol, rank, dcols, nq, G)
     # second-order predictor: the change of G over the last step estimates
     # d2q/dpsi2 along the direction of motion (uniform sweeps keep that direction)
-    Gp = np.zeros((nq, nd))
-    dprev = np.zeros(nd)
-    dnew = np.zeros(nd)
     has_prev = False
     for k in range(nsteps):
         frac = 1.0
@@ -622,9 +748,9 @@ def sweep_kernel(
             if last:
                 for j in range(nd):
                     qtry[dcols[j]] = dvals[k, j]
-            st, it, rank, det, rest = newton(K, qtry, sgc, tol, ptol, maxit, Phi, Tj, T0, A,
-                                             Dh, J, E, T, prow, pcol, dq, Qb, scr, used,
-                                             want_rates)
+            st, it, rank, det, rest = newton(K, qtry, sgc, tol, ptol, maxit, chord, T0, A,
+                                             Dh, J, E, T, prow, pcol, pinv, mult, dq, Qb,
+                                             scr, used)
             total_it += it
             if st == OK:
                 for j in range(nd):
@@ -657,8 +783,9 @@ def sweep_kernel(
         rank_out[k] = rank
         iters_out[k] = total_it
         if want_rates:
-            cons_out[k] = joint_rates(K, q, dcols, G, rd[k], ad[k], T, prow, pcol, rank, A,
-                                      D4, B4, omega, Kh, qd, qdd)
+            cons_out[k] = joint_rates(K, q, dcols, G, rd[k], ad[k], prow, pcol, pinv, mult,
+                                      rank, A, D4, B4, omega, Kh, dQb, qd, qdd, rhs, Qb, scr,
+                                      used)
             for c in range(nq):
                 QDout[k, c] = qd[c]
                 QDDout[k, c] = qdd[c]
@@ -672,34 +799,24 @@ def sweep_kernel(
 # =============================================================================
 # Velocities and accelerations (book ch 7, 8)
 # =============================================================================
-@njit
-def _screw6(M: np.ndarray, out: np.ndarray) -> None:
-    """Screw coordinates (6.41) of a 4x4 operator: [M14, M24, M34, M32, M13, M21]."""
-    out[0] = M[0, 3]
-    out[1] = M[1, 3]
-    out[2] = M[2, 3]
-    out[3] = M[2, 1]
-    out[4] = M[0, 2]
-    out[5] = M[1, 0]
-
-
-@njit
-def _similar(A: np.ndarray, M: np.ndarray, out: np.ndarray) -> None:
-    """out = A M A^-1 for a rigid A and an operator M with zero last row."""
-    Ai = np.empty((4, 4))
-    tmp = np.empty((4, 4))
+@njit(nrt=False)
+def _similar(A: np.ndarray, M: np.ndarray, out: np.ndarray, scr: np.ndarray) -> None:
+    """out = A M A^-1 for a rigid A and an operator M with zero last row (scr: 2 x 4x4)."""
+    Ai = scr[0]
+    tmp = scr[1]
     inv4(A, Ai)
-    for i in range(4):
+    for i in range(3):
         for j in range(4):
-            tmp[i, j] = (A[i, 0] * M[0, j] + A[i, 1] * M[1, j] + A[i, 2] * M[2, j]
-                         + A[i, 3] * M[3, j])
-    for i in range(4):
+            tmp[i, j] = A[i, 0] * M[0, j] + A[i, 1] * M[1, j] + A[i, 2] * M[2, j]
+    for i in range(3):
         for j in range(4):
-            out[i, j] = (tmp[i, 0] * Ai[0, j] + tmp[i, 1] * Ai[1, j] + tmp[i, 2] * Ai[2, j]
-                         + tmp[i, 3] * Ai[3, j])
+            out[i, j] = tmp[i, 0] * Ai[0, j] + tmp[i, 1] * Ai[1, j] + tmp[i, 2] * Ai[2, j]
+        out[i, 3] += tmp[i, 3]
+    for j in range(4):
+        out[3, j] = 0.0
 
 
-@njit
+@njit(nrt=False)
 def _commutator_add(X: np.ndarray, Y: np.ndarray, f: float, out: np.ndarray) -> None:
     """out += f (X Y - Y X) for 4x4 operators with zero last rows."""
     for i in range(3):
@@ -710,31 +827,70 @@ def _commutator_add(X: np.ndarray, Y: np.ndarray, f: float, out: np.ndarray) -> 
             out[i, j] += f * s
 
 
-@njit
-def operators(K: Any, q: np.ndarray, A: np.ndarray, D4: np.ndarray, B4: np.ndarray) -> None:
+@njit(nrt=False)
+def _constant_Q(code: int) -> bool:
+    """True for kinds whose Q does not depend on q (every Q_{g,i} is zero)."""
+    return (code == RIGID or code == REVOLUTE or code == PRISMATIC or code == SCREW
+            or code == CYLINDER)
+
+
+@njit(nrt=False)
+def operators(
+    K: Any, q: np.ndarray, A: np.ndarray, D4: np.ndarray, B4: np.ndarray, Qb: np.ndarray,
+    dQb: np.ndarray, scr: np.ndarray,
+) -> None:
     """Global operators of every joint variable.
 
     D4[c] = A_h Q_h^g A_h^-1 (6.14) and B4[c, i] = A_h Q_h^{g,i} A_h^-1 (8.24)
-    for the variables c = (h, g) and i over the same joint's variables.
+    for the variables c = (h, g) and i over the same joint's variables; B4 is
+    left alone for kinds whose Q is constant (:func:`drift_terms` skips them).
+    Revolute and prismatic operators are written in closed form: the unit
+    rotation about w = R e3 through p is [[skew(w), p x w], [0, 0]], the unit
+    slide along w is [[0, w], [0, 0]].
     """
-    Qb = np.empty((MAXV, 4, 4))
-    dQb = np.empty((MAXV, MAXV, 4, 4))
     for h in range(K.jcode.shape[0]):
         nv = K.jnv[h]
         if nv == 0:
             continue
         a0 = K.jq0[h]
+        code = K.jcode[h]
+        Ah = A[h]
+        if code == REVOLUTE or code == PRISMATIC:
+            D = D4[a0]
+            wx, wy, wz = Ah[0, 2], Ah[1, 2], Ah[2, 2]
+            for i in range(4):
+                for j in range(4):
+                    D[i, j] = 0.0
+            if code == PRISMATIC:
+                D[0, 3] = wx
+                D[1, 3] = wy
+                D[2, 3] = wz
+                continue
+            px, py, pz = Ah[0, 3], Ah[1, 3], Ah[2, 3]
+            D[0, 1] = -wz
+            D[0, 2] = wy
+            D[1, 0] = wz
+            D[1, 2] = -wx
+            D[2, 0] = -wy
+            D[2, 1] = wx
+            D[0, 3] = py * wz - pz * wy
+            D[1, 3] = pz * wx - px * wz
+            D[2, 3] = px * wy - py * wx
+            continue
         qh = q[a0:a0 + nv]
         ch = K.const[K.jc0[h]:]
-        joint_Q(K.jcode[h], qh, ch, Qb)
-        joint_dQ(K.jcode[h], qh, ch, dQb)
+        joint_Q(code, qh, ch, Qb)
         for g in range(nv):
-            _similar(A[h], Qb[g], D4[a0 + g])
+            _similar(Ah, Qb[g], D4[a0 + g], scr)
+        if _constant_Q(code):
+            continue
+        joint_dQ(code, qh, ch, dQb)
+        for g in range(nv):
             for i in range(nv):
-                _similar(A[h], dQb[g, i], B4[a0 + g, i])
+                _similar(Ah, dQb[g, i], B4[a0 + g, i], scr)
 
 
-@njit
+@njit(nrt=False)
 def tree_operators(
     K: Any, rate: np.ndarray, D4: np.ndarray, Kh: np.ndarray, with_drift: bool,
     out: np.ndarray,
@@ -763,7 +919,7 @@ def tree_operators(
                 out[b, i, j] = out[pb, i, j] + sg * s
 
 
-@njit
+@njit(nrt=False)
 def drift_terms(
     K: Any, qd: np.ndarray, D4: np.ndarray, B4: np.ndarray, omega: np.ndarray, Kh: np.ndarray
 ) -> None:
@@ -775,11 +931,14 @@ def drift_terms(
         nv = K.jnv[h]
         a0 = K.jq0[h]
         wm = omega[K.jb1[h]]
+        second = not _constant_Q(K.jcode[h])
         for g in range(nv):
             f = qd[a0 + g]
             if f == 0.0:
                 continue
             _commutator_add(wm, D4[a0 + g], f, Kh[h])
+            if not second:
+                continue
             for t in range(nv):
                 ft = f * qd[a0 + t]
                 if ft == 0.0:
@@ -790,47 +949,62 @@ def drift_terms(
 
 
 @njit
+def rate_arrays(K: Any, nq: int) -> tuple:
+    """Scratch arrays of :func:`joint_rates`: (D4, B4, omega, Kh, dQb, qd, qdd, rhs)."""
+    nj = K.jcode.shape[0]
+    nb = K.order.shape[0]
+    m = 6 * K.L.shape[0] + K.er.shape[0]
+    n = max(nq, 1)
+    return (np.zeros((n, 4, 4)), np.zeros((n, MAXV, 4, 4)), np.zeros((nb, 4, 4)),
+            np.zeros((nj, 4, 4)), np.zeros((MAXV, MAXV, 4, 4)), np.zeros(nq), np.zeros(nq),
+            np.zeros(max(m, 1)))
+
+
+@njit(nrt=False)
 def joint_rates(
     K: Any, q: np.ndarray, dcols: np.ndarray, G: np.ndarray, psid: np.ndarray,
-    psidd: np.ndarray, T: np.ndarray, prow: np.ndarray, pcol: np.ndarray, rank: int,
-    A: np.ndarray, D4: np.ndarray, B4: np.ndarray, omega: np.ndarray, Kh: np.ndarray,
-    qd: np.ndarray, qdd: np.ndarray,
+    psidd: np.ndarray, prow: np.ndarray, pcol: np.ndarray, pinv: np.ndarray,
+    mult: np.ndarray, rank: int, A: np.ndarray, D4: np.ndarray, B4: np.ndarray,
+    omega: np.ndarray, Kh: np.ndarray, dQb: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
+    b: np.ndarray, Qb: np.ndarray, scr: np.ndarray, used: np.ndarray,
 ) -> float:
     """Joint velocities (7.19) and accelerations (8.44) at a converged posture.
 
-    Uses the final elimination tableau ``T`` of the posture (no second
-    inversion): qd = G psid with G the first geometric derivatives, and
+    Uses the final elimination of the posture (no second inversion):
+    qd = G psid with G the first geometric derivatives, and
     qdd_dep = J11^-1 C1 + G psidd with C the acceleration right-hand side
-    (8.40) built from the drift terms of every joint.  Free coordinates that
-    are not driven keep zero rate.  Returns the consistency residual (8.45).
+    (8.40) built from the drift terms of every joint, J11^-1 applied by
+    :func:`replay`.  Free coordinates that are not driven keep zero rate.
+    Returns the consistency residual (8.45): what the dependent rows leave
+    of C.
     """
     nq = q.shape[0]
-    m = T.shape[0]
+    m = b.shape[0] if K.L.shape[0] + K.er.shape[0] > 0 else 0
     nd = dcols.shape[0]
     for c in range(nq):
         s = 0.0
         for j in range(nd):
             s += G[c, j] * psid[j]
         qd[c] = s
-    operators(K, q, A, D4, B4)
+    operators(K, q, A, D4, B4, Qb, dQb, scr)
     tree_operators(K, qd, D4, Kh, False, omega)
     drift_terms(K, qd, D4, B4, omega, Kh)
-    b = np.zeros(m)
-    six = np.empty(6)
-    C = np.empty((4, 4))
     for i in range(K.L.shape[0]):
-        for r in range(4):
-            for t in range(4):
-                C[r, t] = 0.0
+        # C = -sum_h L(i,h) Kh_h; only its screw coordinates (6.41) enter
+        r0 = 6 * i
+        for k in range(6):
+            b[r0 + k] = 0.0
         for h in range(K.jcode.shape[0]):
             lih = K.L[i, h]
-            if lih != 0:
-                for r in range(3):
-                    for t in range(4):
-                        C[r, t] -= lih * Kh[h, r, t]
-        _screw6(C, six)
-        for k in range(6):
-            b[6 * i + k] = six[k]
+            if lih == 0:
+                continue
+            Kc = Kh[h]
+            b[r0 + 0] -= lih * Kc[0, 3]
+            b[r0 + 1] -= lih * Kc[1, 3]
+            b[r0 + 2] -= lih * Kc[2, 3]
+            b[r0 + 3] -= lih * Kc[2, 1]
+            b[r0 + 4] -= lih * Kc[0, 2]
+            b[r0 + 5] -= lih * Kc[1, 0]
     r0 = 6 * K.L.shape[0]
     for k in range(K.er.shape[0]):
         e0 = K.er[k]
@@ -838,29 +1012,21 @@ def joint_rates(
         for t in range(4):
             s += qd[e0 + t] * qd[e0 + t]
         b[r0 + k] = -2.0 * s
-    # qdd = J11^-1 b (pivot rows of the row-operation matrix) + G psidd
+    replay(prow, pinv, mult, rank, b)
     for c in range(nq):
         s = 0.0
         for j in range(nd):
             s += G[c, j] * psidd[j]
         qdd[c] = s
-    used = np.zeros(m, np.bool_)
+    for r in range(m):
+        used[r] = False
     for k in range(rank):
-        r = prow[k]
-        used[r] = True
-        s = 0.0
-        for t in range(m):
-            s += T[r, nq + t] * b[t]
-        qdd[pcol[k]] += s
+        used[prow[k]] = True
+        qdd[pcol[k]] += b[prow[k]]
     worst = 0.0
     for r in range(m):
-        if used[r]:
-            continue
-        s = 0.0
-        for t in range(m):
-            s += T[r, nq + t] * b[t]
-        if abs(s) > worst:
-            worst = abs(s)
+        if not used[r] and abs(b[r]) > worst:
+            worst = abs(b[r])
     return worst
 
 
@@ -870,19 +1036,14 @@ def rates_of(
     omega_out: np.ndarray, alpha_out: np.ndarray, T0_out: np.ndarray,
 ) -> None:
     """Body postures, velocity and acceleration operators for every step of a sweep."""
-    nj = K.jcode.shape[0]
     nq = Qs.shape[1]
-    Phi = np.zeros((nj, 4, 4))
-    Tj = np.zeros((nj, 4, 4))
-    A = np.zeros((nj, 4, 4))
-    D4 = np.zeros((max(nq, 1), 4, 4))
-    B4 = np.zeros((max(nq, 1), MAXV, 4, 4))
-    Kh = np.zeros((nj, 4, 4))
-    scr = np.zeros((8, 4, 4))
+    w = work_arrays(K, nq)
+    A, E, Qb, scr = w[1], w[4], w[11], w[12]
+    r = rate_arrays(K, nq)
+    D4, B4, Kh, dQb = r[0], r[1], r[3], r[4]
     for s in range(Qs.shape[0]):
-        joint_transforms(K, Qs[s], Phi, Tj, scr)
-        postures(K, Tj, T0_out[s], A, scr)
-        operators(K, Qs[s], A, D4, B4)
+        tree_pass(K, Qs[s], A, T0_out[s], E, scr)
+        operators(K, Qs[s], A, D4, B4, Qb, dQb, scr)
         tree_operators(K, QDs[s], D4, Kh, False, omega_out[s])
         drift_terms(K, QDs[s], D4, B4, omega_out[s], Kh)
         tree_operators(K, QDDs[s], D4, Kh, True, alpha_out[s])
@@ -899,16 +1060,10 @@ def tracks(
     (T_out: steps x len(bodies) x 4 x 4, p_out: steps x len(points) x 3), so
     a million-step sweep needs no array of every body's posture.
     """
-    nj = K.jcode.shape[0]
-    nb = K.order.shape[0]
-    Phi = np.zeros((nj, 4, 4))
-    Tj = np.zeros((nj, 4, 4))
-    A = np.zeros((nj, 4, 4))
-    T0 = np.zeros((nb, 4, 4))
-    scr = np.zeros((8, 4, 4))
+    w = work_arrays(K, Qs.shape[1])
+    T0, A, E, scr = w[0], w[1], w[4], w[12]
     for s in range(Qs.shape[0]):
-        joint_transforms(K, Qs[s], Phi, Tj, scr)
-        postures(K, Tj, T0, A, scr)
+        tree_pass(K, Qs[s], A, T0, E, scr)
         for k in range(bodies.shape[0]):
             for r in range(4):
                 for c in range(4):
@@ -1319,10 +1474,9 @@ def sweep(
     QD = np.zeros(shape_r)
     QDD = np.zeros(shape_r)
     cons = np.zeros(nsteps if want else 1)
-    w = Work(K, nq)
     done, status = sweep_kernel(
         K, q, sgc, dcols, np.ascontiguousarray(dvals), tol, pivot_tol, maxit, maxhalve,
-        Qout, quality, rank, fgc, iters, want, rd, ad, QD, QDD, cons, *w.as_tuple())
+        Qout, quality, rank, fgc, iters, want, rd, ad, QD, QDD, cons)
     names = [system.var_names[c] for c in dcols]
     msg = ""
     if done < nsteps:
@@ -1471,8 +1625,8 @@ def require_complete(result: SweepResult) -> SweepResult:
 # =============================================================================
 @njit(parallel=True)
 def batch_kernel(
-    K: Any, S1s: np.ndarray, S2s: np.ndarray, S2invs: np.ndarray, Trefs: np.ndarray,
-    consts: np.ndarray, q0s: np.ndarray, sgc: np.ndarray, dcols: np.ndarray,
+    K: Any, S1s: np.ndarray, S2s: np.ndarray, S1invs: np.ndarray, S2invs: np.ndarray,
+    Trefs: np.ndarray, consts: np.ndarray, q0s: np.ndarray, sgc: np.ndarray, dcols: np.ndarray,
     dvals: np.ndarray, tol: float, ptol: float, maxit: int, maxhalve: int,
     Qout: np.ndarray, quality: np.ndarray, rank_out: np.ndarray, fgc_out: np.ndarray,
     iters_out: np.ndarray, done_out: np.ndarray, status_out: np.ndarray,
@@ -1484,20 +1638,17 @@ def batch_kernel(
     and driver values (``dvals[v]``).
     """
     nv = q0s.shape[0]
-    nq = q0s.shape[1]
     for v in prange(nv):
-        Kv = KData(K.jcode, K.jnv, K.jq0, K.jc0, K.jb1, K.jb2, S1s[v], S2s[v], S2invs[v],
-                   consts[v], K.order, K.pj, K.pb, K.psign, Trefs[v], K.chord, K.L, K.P,
-                   K.er, K.vjoint, K.ptbody, K.ptlocal)
+        Kv = KData(K.jcode, K.jnv, K.jq0, K.jc0, K.jb1, K.jb2, S1s[v], S2s[v], S1invs[v],
+                   S2invs[v], consts[v], K.order, K.pj, K.pb, K.psign, Trefs[v], K.chord, K.L,
+                   K.P, K.er, K.vjoint, K.ptbody, K.ptlocal, K.gen)
         q = q0s[v].copy()
-        Phi, Tj, T0, A, Dh, J, E, T, prow, pcol, dq, Qb, scr, used = work_arrays(Kv, nq)
         dummy2 = np.zeros((1, 1))
         dummy1 = np.zeros(1)
         rd = np.zeros((1, dcols.shape[0]))
         done, st = sweep_kernel(
             Kv, q, sgc, dcols, dvals[v], tol, ptol, maxit, maxhalve, Qout[v], quality[v],
-            rank_out[v], fgc_out[v], iters_out[v], False, rd, rd, dummy2, dummy2, dummy1,
-            Phi, Tj, T0, A, Dh, J, E, T, prow, pcol, dq, Qb, scr, used)
+            rank_out[v], fgc_out[v], iters_out[v], False, rd, rd, dummy2, dummy2, dummy1)
         done_out[v] = done
         status_out[v] = st
 
@@ -1607,7 +1758,8 @@ def sweep_batch(
     status = np.zeros(nv, np.int64)
     batch_kernel(
         K, np.stack([s.K.S1 for s in systems]), np.stack([s.K.S2 for s in systems]),
-        np.stack([s.K.S2inv for s in systems]), np.stack([s.K.Tref for s in systems]),
+        np.stack([s.K.S1inv for s in systems]), np.stack([s.K.S2inv for s in systems]),
+        np.stack([s.K.Tref for s in systems]),
         np.stack([s.K.const for s in systems]), np.stack([s.q0 for s in systems]), sgc, cols,
         dvals, tol, pivot_tol, maxit, maxhalve, Q, quality, rank, fgc, iters, done, status)
     names = [s0.var_names[c] for c in cols]

@@ -30,17 +30,19 @@ if TYPE_CHECKING:
 #:
 #: jcode, jnv, jq0, jc0: per joint kind code, number of variables, offset of its
 #: variables in q, offset of its constants in ``const``; jb1, jb2: its first and
-#: second body; S1 = S_{h-,h}, S2 = S_{h+,h}, S2inv its inverse; order: bodies in
+#: second body; S1 = S_{h-,h}, S2 = S_{h+,h}, S1inv and S2inv their inverses; order: bodies in
 #: tree order; pj, pb, psign: parent joint, parent body and orientation sign of
 #: each body (-1 for reference bodies); Tref: postures of the reference bodies;
 #: chord: the cut-set joint of every loop; L: loop matrix; P: path matrix;
 #: er: index in q of the first of every block of 4 Euler-Rodrigues parameters;
 #: vjoint: joint of every variable; ptbody, ptlocal: body and body-frame
-#: homogeneous coordinates of every point.
+#: homogeneous coordinates of every point; gen: the joints whose kind is not
+#: rigid, revolute, prismatic or cylindric (their Phi and Q go through the
+#: general joint functions).
 KData = namedtuple(
     "KData",
-    "jcode jnv jq0 jc0 jb1 jb2 S1 S2 S2inv const order pj pb psign Tref chord L P er "
-    "vjoint ptbody ptlocal",
+    "jcode jnv jq0 jc0 jb1 jb2 S1 S2 S1inv S2inv const order pj pb psign Tref chord L P er "
+    "vjoint ptbody ptlocal gen",
 )
 
 
@@ -253,6 +255,7 @@ def compile_model(model: Model) -> System:
     nj = len(jlist)
     S1 = np.zeros((nj, 4, 4))
     S2 = np.zeros((nj, 4, 4))
+    S1inv = np.zeros((nj, 4, 4))
     S2inv = np.zeros((nj, 4, 4))
     jcode = np.zeros(nj, np.int64)
     jnv = np.zeros(nj, np.int64)
@@ -270,6 +273,7 @@ def compile_model(model: Model) -> System:
         F2 = scaled(j.frame2)
         S1[h] = _rigid_inverse(Tb[first[h]]) @ F1
         S2[h] = _rigid_inverse(Tb[second[h]]) @ F2
+        S1inv[h] = _rigid_inverse(S1[h])
         S2inv[h] = _rigid_inverse(S2[h])
         c = np.asarray(j.consts, dtype=float).copy()
         for k, kind in enumerate(jt.const_kinds):
@@ -298,7 +302,7 @@ def compile_model(model: Model) -> System:
     K = KData(
         jcode=jcode, jnv=jnv, jq0=jq0, jc0=jc0,
         jb1=np.array(first, np.int64), jb2=np.array(second, np.int64),
-        S1=S1, S2=S2, S2inv=S2inv, const=np.array([*consts, 0.0]),
+        S1=S1, S2=S2, S1inv=S1inv, S2inv=S2inv, const=np.array([*consts, 0.0]),
         order=np.asarray(topo.order, np.int64),
         pj=np.asarray(topo.parent_joint, np.int64),
         pb=np.asarray(topo.parent_body, np.int64),
@@ -311,6 +315,7 @@ def compile_model(model: Model) -> System:
         vjoint=np.array(vjoint, np.int64),
         ptbody=ptbody,
         ptlocal=ptlocal,
+        gen=np.array([h for h in range(nj) if jcode[h] not in (0, 1, 2, 4)], np.int64),
     )
     return System(
         name=model.name,
