@@ -58,19 +58,6 @@ SGC_DETERMINED = 3
 # 4x4 helpers
 # =============================================================================
 @njit(inline="always")
-def mul4(a: np.ndarray, b: np.ndarray, out: np.ndarray) -> None:
-    """out = a @ b for homogeneous 4x4 matrices (last row 0 0 0 1 assumed)."""
-    for i in range(3):
-        for j in range(4):
-            out[i, j] = a[i, 0] * b[0, j] + a[i, 1] * b[1, j] + a[i, 2] * b[2, j]
-        out[i, 3] += a[i, 3]
-    out[3, 0] = 0.0
-    out[3, 1] = 0.0
-    out[3, 2] = 0.0
-    out[3, 3] = 1.0
-
-
-@njit(inline="always")
 def inv4(a: np.ndarray, out: np.ndarray) -> None:
     """Rigid inverse of a homogeneous 4x4 whose rotation part is orthogonal."""
     for i in range(3):
@@ -237,13 +224,7 @@ def tree_pass(
         mm4(T0, K.jb1[ch], K.S1, ch, A, ch)
         right_phi(K.jcode[ch], q, K.jq0[ch], A, ch, scr, 0, False, scr, 8 + ch, scr)
         mm4(scr, 0, K.S2inv, ch, scr, 0)
-        # rigid inverse of T_0d into scr[2]
-        for r in range(3):
-            for c in range(3):
-                scr[2, r, c] = T0[d, c, r]
-        for r in range(3):
-            scr[2, r, 3] = -(T0[d, 0, r] * T0[d, 0, 3] + T0[d, 1, r] * T0[d, 1, 3]
-                             + T0[d, 2, r] * T0[d, 2, 3])
+        inv4(T0[d], scr[2])
         mm4(scr, 0, scr, 2, scr, 1)
         r0 = 6 * i
         E[r0 + 0] = scr[1, 0, 3]
