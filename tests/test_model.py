@@ -315,3 +315,26 @@ def test_unknown_body_frame_joint_and_empty_model():
     bad = np.eye(4)
     bad[0, 0] = 2.0
     input_error(lambda: m.set_body_frame("CRANK", bad), "CRANK")
+
+
+def test_packed_kernel_arrays_are_the_fields():
+    """pack/unpack: the views a kernel rebuilds from KP equal every KData field
+    (shape and values), for an RSSR with a ball joint (ER rows), points and a
+    loop; the Python-side K shares the packed storage."""
+    from openimp.system import KData, unpack
+
+    m = Model("rssr")
+    m.add_joint("revolute", "A", "BASE", "CRANK", origin=(0, 0, 0), axis=(0, 0, 1))
+    m.add_joint("sphere", "B", "CRANK", "COUPLER", origin=(1, 0, 0))
+    m.add_joint("sphere", "C", "COUPLER", "ROCKER", origin=(1.5, 2, 1))
+    m.add_joint("revolute", "D", "ROCKER", "BASE", origin=(0, 2, 1), axis=(1, 0, 0))
+    m.add_point("P", "COUPLER", (1.2, 1, 0.5))
+    m.add_point("Q", "ROCKER", (1.5, 2, 1))
+    s = m.compile()
+    K = unpack(s.KP)
+    assert K._fields == KData._fields
+    for name, a, b in zip(KData._fields, K, s.K, strict=True):
+        assert a.shape == b.shape and a.dtype == b.dtype, name
+        assert np.array_equal(a, b), name
+    assert s.K.er.size == 2 and s.K.L.shape == (1, 4) and s.K.ptlocal.shape == (2, 4)
+    assert np.shares_memory(s.K.S1, s.KP[3]) and np.shares_memory(s.K.L, s.KP[1])

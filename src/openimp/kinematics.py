@@ -42,7 +42,7 @@ from openimp.joints import (
     joint_phi,
     joint_Q,
 )
-from openimp.system import KData
+from openimp.system import unpack
 
 if TYPE_CHECKING:
     from openimp.system import System
@@ -173,12 +173,13 @@ def right_phi(
 
 
 @njit(nrt=False)
-def general_phis(K: Any, q: np.ndarray, scr: np.ndarray) -> None:
+def general_phis(KP: tuple, q: np.ndarray, scr: np.ndarray) -> None:
     """Phi_h of every joint of a general kind (K.gen) into scr[8 + h], through joint_phi.
 
     Kept out of the tree loop: a loop without calls lets numba drop the
     reference counting of the arrays it touches.
     """
+    K = unpack(KP)
     for k in range(K.gen.shape[0]):
         h = K.gen[k]
         a0 = K.jq0[h]
@@ -187,7 +188,7 @@ def general_phis(K: Any, q: np.ndarray, scr: np.ndarray) -> None:
 
 @njit(nrt=False)
 def tree_pass(
-    K: Any, q: np.ndarray, A: np.ndarray, T0: np.ndarray, E: np.ndarray, scr: np.ndarray
+    KP: tuple, q: np.ndarray, A: np.ndarray, T0: np.ndarray, E: np.ndarray, scr: np.ndarray
 ) -> float:
     """One pass along the tree and the chords: postures, A_h and the loop residuals.
 
@@ -200,8 +201,9 @@ def tree_pass(
     (6.43).  Returns max |E|.  Scratch: scr[0..2] and scr[7]; Phi_h of the
     general kinds goes to scr[8 + h].
     """
+    K = unpack(KP)
     if K.gen.shape[0] > 0:
-        general_phis(K, q, scr)
+        general_phis(KP, q, scr)
     for k in range(K.order.shape[0]):
         b = K.order[k]
         h = K.pj[b]
@@ -255,13 +257,14 @@ def tree_pass(
 
 @njit(nrt=False)
 def screw_columns(
-    K: Any, q: np.ndarray, A: np.ndarray, Dh: np.ndarray, Qb: np.ndarray, scr: np.ndarray
+    KP: tuple, q: np.ndarray, A: np.ndarray, Dh: np.ndarray, Qb: np.ndarray, scr: np.ndarray
 ) -> None:
     """Screw coordinates (6.41) of D = A Q A^-1 for every joint variable, into Dh[nq, 6].
 
     Revolute, prismatic and cylindric columns in closed form: the unit
     rotation about w = R e3 through p has [p x w, w], the unit slide [w, 0].
     """
+    K = unpack(KP)
     for h in range(K.jcode.shape[0]):
         nv = K.jnv[h]
         if nv == 0:
@@ -329,10 +332,11 @@ def _screw_general(
 
 @njit(nrt=False)
 def loop_jacobian(
-    K: Any, q: np.ndarray, A: np.ndarray, Dh: np.ndarray, J: np.ndarray, Qb: np.ndarray,
+    KP: tuple, q: np.ndarray, A: np.ndarray, Dh: np.ndarray, J: np.ndarray, Qb: np.ndarray,
     scr: np.ndarray,
 ) -> None:
     """Jacobian of the loop equations (6.45): L(i,h) times the screws of D_h, ER rows."""
+    K = unpack(KP)
     nl = K.L.shape[0]
     nj = K.jcode.shape[0]
     nq = q.shape[0]
@@ -340,7 +344,7 @@ def loop_jacobian(
     for r in range(m):
         for c in range(nq):
             J[r, c] = 0.0
-    screw_columns(K, q, A, Dh, Qb, scr)
+    screw_columns(KP, q, A, Dh, Qb, scr)
     for i in range(nl):
         r0 = 6 * i
         for h in range(nj):
@@ -475,8 +479,9 @@ def sgc_residual(T: np.ndarray, sgc: np.ndarray, prow: np.ndarray, rank: int, n:
 
 
 @njit(nrt=False)
-def normalise_er(K: Any, q: np.ndarray) -> None:
+def normalise_er(KP: tuple, q: np.ndarray) -> None:
     """Put every Euler-Rodrigues block back on the unit sphere (digest 9.27)."""
+    K = unpack(KP)
     for k in range(K.er.shape[0]):
         e0 = K.er[k]
         s = 0.0
@@ -489,12 +494,13 @@ def normalise_er(K: Any, q: np.ndarray) -> None:
 
 
 @njit
-def work_arrays(K: Any, nq: int) -> tuple:
+def work_arrays(KP: tuple, nq: int) -> tuple:
     """Scratch arrays of one solver, in the order the kernels take them.
 
     (T0, A, Dh, J, E, T, prow, pcol, pinv, mult, dq, Qb, scr, used); scr holds
     8 matrices of scratch and then Phi_h of every joint of a general kind.
     """
+    K = unpack(KP)
     nj = K.jcode.shape[0]
     nb = K.order.shape[0]
     m = 6 * K.L.shape[0] + K.er.shape[0]
@@ -509,9 +515,9 @@ def work_arrays(K: Any, nq: int) -> tuple:
 class Work:
     """Scratch arrays of one solver (allocated once per sweep, reused every step)."""
 
-    def __init__(self, K: Any, nq: int) -> None:
+    def __init__(self, KP: tuple, nq: int) -> None:
         (self.T0, self.A, self.Dh, self.J, self.E, self.T, self.prow, self.pcol, self.pinv,
-         self.mult, self.dq, self.Qb, self.scr, self.used) = work_arrays(K, nq)
+         self.mult, self.dq, self.Qb, self.scr, self.used) = work_arrays(KP, nq)
 
     def eval_tuple(self) -> tuple[np.ndarray, ...]:
         """The arrays :func:`evaluate` takes."""
@@ -521,7 +527,7 @@ class Work:
 
 @njit(nrt=False)
 def evaluate(
-    K: Any, q: np.ndarray, sgc: np.ndarray, ptol: float,
+    KP: tuple, q: np.ndarray, sgc: np.ndarray, ptol: float,
     T0: np.ndarray, A: np.ndarray, Dh: np.ndarray, J: np.ndarray, E: np.ndarray,
     T: np.ndarray, prow: np.ndarray, pcol: np.ndarray, pinv: np.ndarray, mult: np.ndarray,
     Qb: np.ndarray, scr: np.ndarray, used: np.ndarray,
@@ -530,15 +536,15 @@ def evaluate(
 
     Returns (max|E|, rank, quality, largest unpivoted entry).
     """
-    err = tree_pass(K, q, A, T0, E, scr)
-    loop_jacobian(K, q, A, Dh, J, Qb, scr)
+    err = tree_pass(KP, q, A, T0, E, scr)
+    loop_jacobian(KP, q, A, Dh, J, Qb, scr)
     rank, det, rest = gauss_jordan(J, E, sgc, ptol, T, prow, pcol, pinv, mult, used)
     return err, rank, det, rest
 
 
 @njit(nrt=False)
 def newton(
-    K: Any, q: np.ndarray, sgc: np.ndarray, tol: float, ptol: float, maxit: int, chord: bool,
+    KP: tuple, q: np.ndarray, sgc: np.ndarray, tol: float, ptol: float, maxit: int, chord: bool,
     T0: np.ndarray, A: np.ndarray, Dh: np.ndarray, J: np.ndarray, E: np.ndarray,
     T: np.ndarray, prow: np.ndarray, pcol: np.ndarray, pinv: np.ndarray, mult: np.ndarray,
     dq: np.ndarray, Qb: np.ndarray, scr: np.ndarray, used: np.ndarray,
@@ -565,7 +571,7 @@ def newton(
     det = 0.0
     rest = 0.0
     for it in range(maxit):
-        err, rank, det, rest = evaluate(K, q, sgc, ptol, T0, A, Dh, J, E, T, prow, pcol, pinv,
+        err, rank, det, rest = evaluate(KP, q, sgc, ptol, T0, A, Dh, J, E, T, prow, pcol, pinv,
                                         mult, Qb, scr, used)
         step = 0.0
         for c in range(nq):
@@ -588,11 +594,11 @@ def newton(
             return DIVERGED, it + 1, rank, det, rest
         for c in range(nq):
             q[c] += dq[c]
-        normalise_er(K, q)
+        normalise_er(KP, q)
         if not chord or step > 1e-3:
             continue
         for _ in range(4):
-            err = tree_pass(K, q, A, T0, E, scr)
+            err = tree_pass(KP, q, A, T0, E, scr)
             replay(prow, pinv, mult, rank, E)
             last = step
             step = 0.0
@@ -608,7 +614,7 @@ def newton(
                 break  # contracting too slowly: a fresh Jacobian
             for k in range(rank):
                 q[pcol[k]] += E[prow[k]]
-            normalise_er(K, q)
+            normalise_er(KP, q)
     return MAXITER, maxit, rank, det, rest
 
 
@@ -632,7 +638,7 @@ def derivative_matrix(
 
 @njit
 def sweep_kernel(
-    K: Any, q: np.ndarray, sgc: np.ndarray, dcols: np.ndarray, dvals: np.ndarray,
+    KP: tuple, q: np.ndarray, sgc: np.ndarray, dcols: np.ndarray, dvals: np.ndarray,
     tol: float, ptol: float, maxit: int, maxhalve: int,
     Qout: np.ndarray, quality: np.ndarray, rank_out: np.ndarray, fgc_out: np.ndarray,
     iters_out: np.ndarray, want_rates: bool, rd: np.ndarray, ad: np.ndarray,
@@ -652,10 +658,10 @@ def sweep_kernel(
     """
     nq = q.shape[0]
     nd = dcols.shape[0]
-    T0, A, Dh, J, E, T, prow, pcol, pinv, mult, dq, Qb, scr, used = work_arrays(K, nq)
-    D4, B4, omega, Kh, dQb, qd, qdd, rhs = rate_arrays(K, nq if want_rates else 0)
+    T0, A, Dh, J, E, T, prow, pcol, pinv, mult, dq, Qb, scr, used = work_arrays(KP, nq)
+    D4, B4, omega, Kh, dQb, qd, qdd, rhs = rate_arrays(KP, nq if want_rates else 0)
     return _sweep_steps(
-        K, q, sgc, dcols, dvals, tol, ptol, maxit, maxhalve, Qout, quality, rank_out, fgc_out,
+        KP, q, sgc, dcols, dvals, tol, ptol, maxit, maxhalve, Qout, quality, rank_out, fgc_out,
         iters_out, want_rates, rd, ad, QDout, QDDout, cons_out,
         T0, A, Dh, J, E, T, prow, pcol, pinv, mult, dq, Qb, scr, used,
         D4, B4, omega, Kh, dQb, qd, qdd, rhs,
@@ -665,7 +671,7 @@ def sweep_kernel(
 
 @njit(nrt=False)
 def _sweep_steps(
-    K: Any, q: np.ndarray, sgc: np.ndarray, dcols: np.ndarray, dvals: np.ndarray,
+    KP: tuple, q: np.ndarray, sgc: np.ndarray, dcols: np.ndarray, dvals: np.ndarray,
     tol: float, ptol: float, maxit: int, maxhalve: int,
     Qout: np.ndarray, quality: np.ndarray, rank_out: np.ndarray, fgc_out: np.ndarray,
     iters_out: np.ndarray, want_rates: bool, rd: np.ndarray, ad: np.ndarray,
@@ -684,7 +690,7 @@ def _sweep_steps(
     nsteps = dvals.shape[0]
     chord = not want_rates
     # the elimination at the start posture provides the first predictor
-    st, it, rank, det, rest = newton(K, q, sgc, tol, ptol, maxit, False, T0, A, Dh, J, E,
+    st, it, rank, det, rest = newton(KP, q, sgc, tol, ptol, maxit, False, T0, A, Dh, J, E,
                                      T, prow, pcol, pinv, mult, dq, Qb, scr, used)
     if st != OK:
         return 0, st
@@ -724,12 +730,12 @@ def _sweep_steps(
                         f = 0.5 * ratio * dnew[j]
                         for r in range(nq):
                             qtry[r] += f * (G[r, j] - Gp[r, j])
-            normalise_er(K, qtry)
+            normalise_er(KP, qtry)
             last = frac == 1.0
             if last:
                 for j in range(nd):
                     qtry[dcols[j]] = dvals[k, j]
-            st, it, rank, det, rest = newton(K, qtry, sgc, tol, ptol, maxit, chord, T0, A,
+            st, it, rank, det, rest = newton(KP, qtry, sgc, tol, ptol, maxit, chord, T0, A,
                                              Dh, J, E, T, prow, pcol, pinv, mult, dq, Qb,
                                              scr, used)
             total_it += it
@@ -764,7 +770,7 @@ def _sweep_steps(
         rank_out[k] = rank
         iters_out[k] = total_it
         if want_rates:
-            cons_out[k] = joint_rates(K, q, dcols, G, rd[k], ad[k], prow, pcol, pinv, mult,
+            cons_out[k] = joint_rates(KP, q, dcols, G, rd[k], ad[k], prow, pcol, pinv, mult,
                                       rank, A, D4, B4, omega, Kh, dQb, qd, qdd, rhs, Qb, scr,
                                       used)
             for c in range(nq):
@@ -817,7 +823,7 @@ def _constant_Q(code: int) -> bool:
 
 @njit(nrt=False)
 def operators(
-    K: Any, q: np.ndarray, A: np.ndarray, D4: np.ndarray, B4: np.ndarray, Qb: np.ndarray,
+    KP: tuple, q: np.ndarray, A: np.ndarray, D4: np.ndarray, B4: np.ndarray, Qb: np.ndarray,
     dQb: np.ndarray, scr: np.ndarray,
 ) -> None:
     """Global operators of every joint variable.
@@ -829,6 +835,7 @@ def operators(
     rotation about w = R e3 through p is [[skew(w), p x w], [0, 0]], the unit
     slide along w is [[0, w], [0, 0]].
     """
+    K = unpack(KP)
     for h in range(K.jcode.shape[0]):
         nv = K.jnv[h]
         if nv == 0:
@@ -873,7 +880,7 @@ def operators(
 
 @njit(nrt=False)
 def tree_operators(
-    K: Any, rate: np.ndarray, D4: np.ndarray, Kh: np.ndarray, with_drift: bool,
+    KP: tuple, rate: np.ndarray, D4: np.ndarray, Kh: np.ndarray, with_drift: bool,
     out: np.ndarray,
 ) -> None:
     """Sum joint operators along the tree: out_b = sum_h P(b,h) (D_h rate_h [+ Kh_h]).
@@ -881,6 +888,7 @@ def tree_operators(
     With the joint velocities and no drift this is omega_b (7.22); with the
     joint accelerations and the drift terms Kh it is alpha_b (8.52).
     """
+    K = unpack(KP)
     for k in range(K.order.shape[0]):
         b = K.order[k]
         h = K.pj[b]
@@ -902,9 +910,10 @@ def tree_operators(
 
 @njit(nrt=False)
 def drift_terms(
-    K: Any, qd: np.ndarray, D4: np.ndarray, B4: np.ndarray, omega: np.ndarray, Kh: np.ndarray
+    KP: tuple, qd: np.ndarray, D4: np.ndarray, B4: np.ndarray, omega: np.ndarray, Kh: np.ndarray
 ) -> None:
     """Kh = sum_g ([omega_h-, D_h^g] + sum_i B_h^{g,i} qd_i) qd_g per joint (8.26, 8.39)."""
+    K = unpack(KP)
     for h in range(K.jcode.shape[0]):
         for i in range(4):
             for j in range(4):
@@ -930,8 +939,9 @@ def drift_terms(
 
 
 @njit
-def rate_arrays(K: Any, nq: int) -> tuple:
+def rate_arrays(KP: tuple, nq: int) -> tuple:
     """Scratch arrays of :func:`joint_rates`: (D4, B4, omega, Kh, dQb, qd, qdd, rhs)."""
+    K = unpack(KP)
     nj = K.jcode.shape[0]
     nb = K.order.shape[0]
     m = 6 * K.L.shape[0] + K.er.shape[0]
@@ -943,7 +953,7 @@ def rate_arrays(K: Any, nq: int) -> tuple:
 
 @njit(nrt=False)
 def joint_rates(
-    K: Any, q: np.ndarray, dcols: np.ndarray, G: np.ndarray, psid: np.ndarray,
+    KP: tuple, q: np.ndarray, dcols: np.ndarray, G: np.ndarray, psid: np.ndarray,
     psidd: np.ndarray, prow: np.ndarray, pcol: np.ndarray, pinv: np.ndarray,
     mult: np.ndarray, rank: int, A: np.ndarray, D4: np.ndarray, B4: np.ndarray,
     omega: np.ndarray, Kh: np.ndarray, dQb: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
@@ -959,6 +969,7 @@ def joint_rates(
     Returns the consistency residual (8.45): what the dependent rows leave
     of C.
     """
+    K = unpack(KP)
     nq = q.shape[0]
     m = b.shape[0] if K.L.shape[0] + K.er.shape[0] > 0 else 0
     nd = dcols.shape[0]
@@ -967,9 +978,9 @@ def joint_rates(
         for j in range(nd):
             s += G[c, j] * psid[j]
         qd[c] = s
-    operators(K, q, A, D4, B4, Qb, dQb, scr)
-    tree_operators(K, qd, D4, Kh, False, omega)
-    drift_terms(K, qd, D4, B4, omega, Kh)
+    operators(KP, q, A, D4, B4, Qb, dQb, scr)
+    tree_operators(KP, qd, D4, Kh, False, omega)
+    drift_terms(KP, qd, D4, B4, omega, Kh)
     for i in range(K.L.shape[0]):
         # C = -sum_h L(i,h) Kh_h; only its screw coordinates (6.41) enter
         r0 = 6 * i
@@ -1013,26 +1024,26 @@ def joint_rates(
 
 @njit
 def rates_of(
-    K: Any, Qs: np.ndarray, QDs: np.ndarray, QDDs: np.ndarray,
+    KP: tuple, Qs: np.ndarray, QDs: np.ndarray, QDDs: np.ndarray,
     omega_out: np.ndarray, alpha_out: np.ndarray, T0_out: np.ndarray,
 ) -> None:
     """Body postures, velocity and acceleration operators for every step of a sweep."""
     nq = Qs.shape[1]
-    w = work_arrays(K, nq)
+    w = work_arrays(KP, nq)
     A, E, Qb, scr = w[1], w[4], w[11], w[12]
-    r = rate_arrays(K, nq)
+    r = rate_arrays(KP, nq)
     D4, B4, Kh, dQb = r[0], r[1], r[3], r[4]
     for s in range(Qs.shape[0]):
-        tree_pass(K, Qs[s], A, T0_out[s], E, scr)
-        operators(K, Qs[s], A, D4, B4, Qb, dQb, scr)
-        tree_operators(K, QDs[s], D4, Kh, False, omega_out[s])
-        drift_terms(K, QDs[s], D4, B4, omega_out[s], Kh)
-        tree_operators(K, QDDs[s], D4, Kh, True, alpha_out[s])
+        tree_pass(KP, Qs[s], A, T0_out[s], E, scr)
+        operators(KP, Qs[s], A, D4, B4, Qb, dQb, scr)
+        tree_operators(KP, QDs[s], D4, Kh, False, omega_out[s])
+        drift_terms(KP, QDs[s], D4, B4, omega_out[s], Kh)
+        tree_operators(KP, QDDs[s], D4, Kh, True, alpha_out[s])
 
 
 @njit
 def tracks(
-    K: Any, Qs: np.ndarray, bodies: np.ndarray, points: np.ndarray,
+    KP: tuple, Qs: np.ndarray, bodies: np.ndarray, points: np.ndarray,
     T_out: np.ndarray, p_out: np.ndarray,
 ) -> None:
     """Postures of selected bodies and positions of selected points for every row of ``Qs``.
@@ -1041,10 +1052,11 @@ def tracks(
     (T_out: steps x len(bodies) x 4 x 4, p_out: steps x len(points) x 3), so
     a million-step sweep needs no array of every body's posture.
     """
-    w = work_arrays(K, Qs.shape[1])
+    K = unpack(KP)
+    w = work_arrays(KP, Qs.shape[1])
     T0, A, E, scr = w[0], w[1], w[4], w[12]
     for s in range(Qs.shape[0]):
-        tree_pass(K, Qs[s], A, T0, E, scr)
+        tree_pass(KP, Qs[s], A, T0, E, scr)
         for k in range(bodies.shape[0]):
             for r in range(4):
                 for c in range(4):
@@ -1212,7 +1224,7 @@ class SweepResult:
             om = np.zeros((self.nsteps, nb, 4, 4))
             al = np.zeros((self.nsteps, nb, 4, 4))
             T0 = np.zeros((self.nsteps, nb, 4, 4))
-            rates_of(self.system.K, np.ascontiguousarray(self._q), self._qd, self._qdd,
+            rates_of(self.system.KP, np.ascontiguousarray(self._q), self._qd, self._qdd,
                      om, al, T0)
             Ls = self.system.length_scale
             om[..., :3, 3] *= Ls
@@ -1313,7 +1325,7 @@ class SweepResult:
     def _track(self, bodies: list[int], points: list[int]) -> tuple[np.ndarray, np.ndarray]:
         T = np.zeros((self.nsteps, len(bodies), 4, 4))
         p = np.zeros((self.nsteps, len(points), 3))
-        tracks(self.system.K, np.ascontiguousarray(self._q), np.array(bodies, np.int64),
+        tracks(self.system.KP, np.ascontiguousarray(self._q), np.array(bodies, np.int64),
                np.array(points, np.int64), T, p)
         Ls = self.system.length_scale
         T[..., :3, 3] *= Ls
@@ -1431,7 +1443,7 @@ def sweep(
             drivers[key], rates[key], accels[key] = p, v, a
     if drivers is None:
         raise InputError("give drivers (joint -> values) or motion= with times=")
-    K = system.K
+    KP = system.KP
     dcols, dvals = _driver_columns(system, drivers, steps)
     nq = system.nq
     nsteps = dvals.shape[0]
@@ -1456,7 +1468,7 @@ def sweep(
     QDD = np.zeros(shape_r)
     cons = np.zeros(nsteps if want else 1)
     done, status = sweep_kernel(
-        K, q, sgc, dcols, np.ascontiguousarray(dvals), tol, pivot_tol, maxit, maxhalve,
+        KP, q, sgc, dcols, np.ascontiguousarray(dvals), tol, pivot_tol, maxit, maxhalve,
         Qout, quality, rank, fgc, iters, want, rd, ad, QD, QDD, cons)
     names = [system.var_names[c] for c in dcols]
     msg = ""
@@ -1514,9 +1526,8 @@ def check_drivers(
     Raises InputError naming the offending driver or the free coordinates
     that need drivers.
     """
-    K = system.K
-    w = Work(K, system.nq)
-    _err, rank, det, _rest = evaluate(K, q, sgc, pivot_tol, *w.eval_tuple())
+    w = Work(system.KP, system.nq)
+    _err, rank, det, _rest = evaluate(system.KP, q, sgc, pivot_tol, *w.eval_tuple())
     nq = system.nq
     if sgc_residual(w.T, sgc, w.prow, rank, nq) > 1e-6:
         # find which driver is determined: the ones with a residual in an unpivoted row
@@ -1547,10 +1558,9 @@ def check_drivers(
 
 def rank_full(system: System, q: np.ndarray) -> int:
     """Rank of the whole Jacobian at ``q`` (nothing specified)."""
-    K = system.K
-    w = Work(K, system.nq)
+    w = Work(system.KP, system.nq)
     sgc = np.zeros(system.nq, np.bool_)
-    _, rank, _, _ = evaluate(K, q, sgc, 1e-10, *w.eval_tuple())
+    _, rank, _, _ = evaluate(system.KP, q, sgc, 1e-10, *w.eval_tuple())
     return int(rank)
 
 
@@ -1606,30 +1616,30 @@ def require_complete(result: SweepResult) -> SweepResult:
 # =============================================================================
 @njit(parallel=True)
 def batch_kernel(
-    K: Any, S1s: np.ndarray, S2s: np.ndarray, S1invs: np.ndarray, S2invs: np.ndarray,
-    Trefs: np.ndarray, consts: np.ndarray, q0s: np.ndarray, sgc: np.ndarray, dcols: np.ndarray,
+    KI: np.ndarray, KL: np.ndarray, KFs: np.ndarray, KMs: np.ndarray, KVs: np.ndarray,
+    q0s: np.ndarray, sgc: np.ndarray, dcols: np.ndarray,
     dvals: np.ndarray, tol: float, ptol: float, maxit: int, maxhalve: int,
     Qout: np.ndarray, quality: np.ndarray, rank_out: np.ndarray, fgc_out: np.ndarray,
     iters_out: np.ndarray, done_out: np.ndarray, status_out: np.ndarray,
 ) -> None:
     """Run :func:`sweep_kernel` for every variant v in parallel.
 
-    The variants share the topology and joint kinds of ``K`` and differ in
-    their shape matrices, reference postures, constants, starting variables
-    and driver values (``dvals[v]``).
+    The variants share the topology and joint kinds (the int parts ``KI``
+    and ``KL`` of the packed kernel arrays, :func:`openimp.system.pack`) and
+    differ in their float parts (constants ``KFs[v]``, shape matrices and
+    reference postures ``KMs[v]``, points ``KVs[v]``), their starting
+    variables and their driver values (``dvals[v]``).
     """
     nv = q0s.shape[0]
     for v in prange(nv):
-        Kv = KData(K.jcode, K.jnv, K.jq0, K.jc0, K.jb1, K.jb2, S1s[v], S2s[v], S1invs[v],
-                   S2invs[v], consts[v], K.order, K.pj, K.pb, K.psign, Trefs[v], K.chord, K.L,
-                   K.P, K.er, K.vjoint, K.ptbody, K.ptlocal, K.gen)
         q = q0s[v].copy()
         dummy2 = np.zeros((1, 1))
         dummy1 = np.zeros(1)
         rd = np.zeros((1, dcols.shape[0]))
         done, st = sweep_kernel(
-            Kv, q, sgc, dcols, dvals[v], tol, ptol, maxit, maxhalve, Qout[v], quality[v],
-            rank_out[v], fgc_out[v], iters_out[v], False, rd, rd, dummy2, dummy2, dummy1)
+            (KI, KL, KFs[v], KMs[v], KVs[v]), q, sgc, dcols, dvals[v], tol, ptol, maxit,
+            maxhalve, Qout[v], quality[v], rank_out[v], fgc_out[v], iters_out[v], False, rd, rd,
+            dummy2, dummy2, dummy1)
         done_out[v] = done
         status_out[v] = st
 
@@ -1694,12 +1704,12 @@ def sweep_batch(
     if not systems:
         raise InputError("sweep_batch needs at least one compiled system")
     s0 = systems[0]
-    K = s0.K
+    KI, KL = s0.KP[0], s0.KP[1]
     for i, s in enumerate(systems[1:], start=1):
-        Ks = s.K
+        # same joints, loops, tree, points and constants layout: the same int parts
         same = (s.var_names == s0.var_names and s.bodies == s0.bodies
-                and np.array_equal(Ks.jcode, K.jcode) and np.array_equal(Ks.L, K.L)
-                and np.array_equal(Ks.pj, K.pj) and Ks.const.shape == K.const.shape)
+                and np.array_equal(s.KP[0], KI) and np.array_equal(s.KP[1], KL)
+                and s.KP[2].shape == s0.KP[2].shape)
         if not same:
             raise InputError(
                 f"variant {i} ({s.name!r}) does not have the topology and joints of variant 0 "
@@ -1738,10 +1748,8 @@ def sweep_batch(
     done = np.zeros(nv, np.int64)
     status = np.zeros(nv, np.int64)
     batch_kernel(
-        K, np.stack([s.K.S1 for s in systems]), np.stack([s.K.S2 for s in systems]),
-        np.stack([s.K.S1inv for s in systems]), np.stack([s.K.S2inv for s in systems]),
-        np.stack([s.K.Tref for s in systems]),
-        np.stack([s.K.const for s in systems]), np.stack([s.q0 for s in systems]), sgc, cols,
+        KI, KL, *(np.stack([s.KP[k] for s in systems]) for k in (2, 3, 4)),
+        np.stack([s.q0 for s in systems]), sgc, cols,
         dvals, tol, pivot_tol, maxit, maxhalve, Q, quality, rank, fgc, iters, done, status)
     names = [s0.var_names[c] for c in cols]
     msgs = ["" if done[v] == nsteps else

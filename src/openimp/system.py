@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from openimp import topology as _topology
+from openimp._jit import njit
 from openimp.errors import InputError
 from openimp.joints import conformity
 
@@ -45,6 +46,70 @@ KData = namedtuple(
     "vjoint ptbody ptlocal gen",
 )
 
+#: Where every :data:`KData` field lives in the packed form, in field order:
+#: "i" int64 vectors (KI), "l" int64 rows of nj (KL), "f" float64 vectors
+#: (KF), "m" 4x4 float64 matrices (KM), "v" float64 rows of 4 (KV).
+KFIELDS = "iiiiii" "mmmm" "f" "iiii" "m" "i" "ll" "iii" "v" "i"
+_BUFFERS = "ilfmv"
+
+
+def pack(fields: Mapping[str, np.ndarray]) -> tuple[tuple[np.ndarray, ...], Any]:
+    """The packed form ``KP = (KI, KL, KF, KM, KV)`` of the kernel arrays, and :data:`KData` views.
+
+    Compiled kernels take ``KP``: five arrays instead of 24, because numba
+    passes every array of a tuple argument as separate words on each call,
+    and that copying cost more than a four-bar's arithmetic.  Each buffer
+    stacks the fields of one element type and row shape along its first
+    axis, so a field is a slice of rows (no reshape).  ``KI`` starts with a
+    header: per field, its first row and its number of rows.
+    :func:`unpack` rebuilds the views inside a kernel; the returned
+    :data:`KData` holds the same views for Python code.
+    """
+    arrays = [np.asarray(fields[name]) for name in KData._fields]
+    head = np.zeros(2 * len(arrays), np.int64)
+    rows = {k: 0 for k in _BUFFERS}
+    rows["i"] = head.size
+    for f, (kind, a) in enumerate(zip(KFIELDS, arrays, strict=True)):
+        head[2 * f] = rows[kind]
+        head[2 * f + 1] = a.shape[0]
+        rows[kind] += a.shape[0]
+    nj = len(fields["jcode"])
+    bufs = {
+        "i": np.zeros(rows["i"], np.int64), "l": np.zeros((rows["l"], nj), np.int64),
+        "f": np.zeros(rows["f"]), "m": np.zeros((rows["m"], 4, 4)), "v": np.zeros((rows["v"], 4)),
+    }
+    bufs["i"][:head.size] = head
+    views = []
+    for f, (kind, a) in enumerate(zip(KFIELDS, arrays, strict=True)):
+        o = int(head[2 * f])
+        v = bufs[kind][o:o + a.shape[0]]
+        v[...] = a
+        views.append(v)
+    return tuple(bufs[k] for k in _BUFFERS), KData(*views)
+
+
+@njit(inline="always")
+def _rows(buf: np.ndarray, KI: np.ndarray, f: int) -> np.ndarray:
+    o = KI[2 * f]
+    return buf[o:o + KI[2 * f + 1]]
+
+
+@njit(inline="always")
+def unpack(KP: tuple) -> Any:
+    """The :data:`KData` views of the packed arrays ``KP`` (see :func:`pack`).
+
+    Inlined into each kernel; only the fields a kernel reads are built.
+    """
+    KI, KL, KF, KM, KV = KP
+    return KData(
+        _rows(KI, KI, 0), _rows(KI, KI, 1), _rows(KI, KI, 2), _rows(KI, KI, 3),
+        _rows(KI, KI, 4), _rows(KI, KI, 5), _rows(KM, KI, 6), _rows(KM, KI, 7),
+        _rows(KM, KI, 8), _rows(KM, KI, 9), _rows(KF, KI, 10), _rows(KI, KI, 11),
+        _rows(KI, KI, 12), _rows(KI, KI, 13), _rows(KI, KI, 14), _rows(KM, KI, 15),
+        _rows(KI, KI, 16), _rows(KL, KI, 17), _rows(KL, KI, 18), _rows(KI, KI, 19),
+        _rows(KI, KI, 20), _rows(KI, KI, 21), _rows(KV, KI, 22), _rows(KI, KI, 23),
+    )
+
 
 def _rigid_inverse(T: np.ndarray) -> np.ndarray:
     out = np.eye(4)
@@ -67,7 +132,8 @@ class System:
     var_kinds: ``angle``, ``length`` or ``er`` per variable.
     length_scale: one internal length unit in model units (book 6.7).
     q0: joint variables at the modeling posture (internal units).
-    K: the kernel arrays (:data:`KData`).
+    K: the kernel arrays (:data:`KData`), views of ``KP``.
+    KP: the same arrays packed for the compiled kernels (:func:`pack`).
     topology: the :class:`~openimp.topology.Topology`.
     """
 
@@ -82,6 +148,7 @@ class System:
     length_scale: float
     q0: np.ndarray
     K: Any
+    KP: tuple[np.ndarray, ...]
     topology: _topology.Topology
 
     # ------------------------------------------------------------- sizes/names
@@ -299,7 +366,7 @@ def compile_model(model: Model) -> System:
     for i, p in enumerate(model.points.values()):
         ptlocal[i] = _rigid_inverse(Tb[bidx[p.body]]) @ np.append(p.xyz / Ls, 1.0)
 
-    K = KData(
+    KP, K = pack(dict(
         jcode=jcode, jnv=jnv, jq0=jq0, jc0=jc0,
         jb1=np.array(first, np.int64), jb2=np.array(second, np.int64),
         S1=S1, S2=S2, S1inv=S1inv, S2inv=S2inv, const=np.array([*consts, 0.0]),
@@ -316,7 +383,7 @@ def compile_model(model: Model) -> System:
         ptbody=ptbody,
         ptlocal=ptlocal,
         gen=np.array([h for h in range(nj) if jcode[h] not in (0, 1, 2, 4)], np.int64),
-    )
+    ))
     return System(
         name=model.name,
         bodies=tuple(bodies),
@@ -329,5 +396,6 @@ def compile_model(model: Model) -> System:
         length_scale=Ls,
         q0=np.array(q0, dtype=float),
         K=K,
+        KP=KP,
         topology=topo,
     )

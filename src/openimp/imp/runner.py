@@ -509,11 +509,10 @@ def _free_column(system: Any, q: np.ndarray | None) -> int | None:
     """A free joint variable to hold when a run has no input motion (None for a structure)."""
     from openimp.kinematics import Work, evaluate
 
-    K = system.K
-    w = Work(K, system.nq)
+    w = Work(system.KP, system.nq)
     qi = system.q0.copy() if q is None else system.to_internal(q)
     sgc = np.zeros(system.nq, np.bool_)
-    _, rank, _, _ = evaluate(K, qi, sgc, 1e-10, *w.eval_tuple())
+    _, rank, _, _ = evaluate(system.KP, qi, sgc, 1e-10, *w.eval_tuple())
     piv = set(int(c) for c in w.pcol[:rank])
     for c in range(system.nq):
         if c not in piv and system.var_kinds[c] != "er":
