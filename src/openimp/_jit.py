@@ -83,3 +83,46 @@ def njit(*args: Any, **kwargs: Any) -> Any:
 
 #: ``numba.prange`` when compiling (parallel loops), plain ``range`` otherwise.
 prange = _numba.prange if JIT_ENABLED else range
+
+
+def _rows_py(buf: Any, o: int, n: int) -> Any:
+    """``buf[o:o + n]``: rows o to o + n of an array (plain Python)."""
+    return buf[o:o + n]
+
+
+if JIT_ENABLED:
+    from numba.core import cgutils, types
+    from numba.core.imputils import impl_ret_borrowed
+    from numba.extending import intrinsic
+    from numba.np.arrayobj import make_array, populate_array
+
+    @intrinsic
+    def _rows_intrinsic(typingctx: Any, buf: Any, o: Any, n: Any) -> Any:
+        """``buf[o:o + n]`` built directly: no index normalisation or clamping.
+
+        A view is a new array header on the same data; a numba slice of a
+        run-time range generates bounds arithmetic that LLVM must optimise
+        away in every kernel (the packed kernel arrays take 24 of them).
+        The caller guarantees 0 <= o <= o + n <= len(buf).
+        """
+        if not isinstance(buf, types.Array) or buf.layout != "C":
+            return None
+
+        def codegen(context: Any, builder: Any, sig: Any, args: Any) -> Any:
+            aty = sig.args[0]
+            src = make_array(aty)(context, builder, value=args[0])
+            dst = make_array(aty)(context, builder)
+            off = context.cast(builder, args[1], sig.args[1], types.intp)
+            cnt = context.cast(builder, args[2], sig.args[2], types.intp)
+            shape = cgutils.unpack_tuple(builder, src.shape, aty.ndim)
+            strides = cgutils.unpack_tuple(builder, src.strides, aty.ndim)
+            data = cgutils.pointer_add(builder, src.data, builder.mul(off, strides[0]))
+            populate_array(dst, data=data, shape=[cnt, *shape[1:]], strides=strides,
+                           itemsize=src.itemsize, meminfo=src.meminfo, parent=src.parent)
+            return impl_ret_borrowed(context, builder, aty, dst._getvalue())
+
+        return buf(buf, o, n), codegen
+
+    rows: Callable[..., Any] = _rows_intrinsic
+else:
+    rows = _rows_py

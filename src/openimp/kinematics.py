@@ -335,15 +335,14 @@ def loop_jacobian(
     KP: tuple, q: np.ndarray, A: np.ndarray, Dh: np.ndarray, J: np.ndarray, Qb: np.ndarray,
     scr: np.ndarray,
 ) -> None:
-    """Jacobian of the loop equations (6.45): L(i,h) times the screws of D_h, ER rows."""
+    """Jacobian of the loop equations (6.45): L(i,h) times the screws of D_h, ER rows.
+
+    Writes only the entries the loops and ER blocks fill, the same ones at
+    every call: ``J`` must start zeroed (:func:`work_arrays`).
+    """
     K = unpack(KP)
     nl = K.L.shape[0]
     nj = K.jcode.shape[0]
-    nq = q.shape[0]
-    m = J.shape[0]
-    for r in range(m):
-        for c in range(nq):
-            J[r, c] = 0.0
     screw_columns(KP, q, A, Dh, Qb, scr)
     for i in range(nl):
         r0 = 6 * i
@@ -525,7 +524,7 @@ class Work:
                 self.pinv, self.mult, self.Qb, self.scr, self.used)
 
 
-@njit(nrt=False)
+@njit(nrt=False, inline="always")
 def evaluate(
     KP: tuple, q: np.ndarray, sgc: np.ndarray, ptol: float,
     T0: np.ndarray, A: np.ndarray, Dh: np.ndarray, J: np.ndarray, E: np.ndarray,

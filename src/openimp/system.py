@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from openimp import topology as _topology
-from openimp._jit import njit
+from openimp._jit import njit, rows
 from openimp.errors import InputError
 from openimp.joints import conformity
 
@@ -89,25 +89,41 @@ def pack(fields: Mapping[str, np.ndarray]) -> tuple[tuple[np.ndarray, ...], Any]
 
 
 @njit(inline="always")
-def _rows(buf: np.ndarray, KI: np.ndarray, f: int) -> np.ndarray:
-    o = KI[2 * f]
-    return buf[o:o + KI[2 * f + 1]]
-
-
-@njit(inline="always")
 def unpack(KP: tuple) -> Any:
     """The :data:`KData` views of the packed arrays ``KP`` (see :func:`pack`).
 
-    Inlined into each kernel; only the fields a kernel reads are built.
+    Inlined (numba IR) into each kernel, where the views take the kernel's
+    reference-counting mode and LLVM drops the ones the kernel does not
+    read.  Each view is a bare array header (:func:`openimp._jit.rows`);
+    numba's slicing would add index arithmetic that cost 10 s of a cold
+    start over all kernels.
     """
     KI, KL, KF, KM, KV = KP
     return KData(
-        _rows(KI, KI, 0), _rows(KI, KI, 1), _rows(KI, KI, 2), _rows(KI, KI, 3),
-        _rows(KI, KI, 4), _rows(KI, KI, 5), _rows(KM, KI, 6), _rows(KM, KI, 7),
-        _rows(KM, KI, 8), _rows(KM, KI, 9), _rows(KF, KI, 10), _rows(KI, KI, 11),
-        _rows(KI, KI, 12), _rows(KI, KI, 13), _rows(KI, KI, 14), _rows(KM, KI, 15),
-        _rows(KI, KI, 16), _rows(KL, KI, 17), _rows(KL, KI, 18), _rows(KI, KI, 19),
-        _rows(KI, KI, 20), _rows(KI, KI, 21), _rows(KV, KI, 22), _rows(KI, KI, 23),
+        rows(KI, KI[0], KI[1]),
+        rows(KI, KI[2], KI[3]),
+        rows(KI, KI[4], KI[5]),
+        rows(KI, KI[6], KI[7]),
+        rows(KI, KI[8], KI[9]),
+        rows(KI, KI[10], KI[11]),
+        rows(KM, KI[12], KI[13]),
+        rows(KM, KI[14], KI[15]),
+        rows(KM, KI[16], KI[17]),
+        rows(KM, KI[18], KI[19]),
+        rows(KF, KI[20], KI[21]),
+        rows(KI, KI[22], KI[23]),
+        rows(KI, KI[24], KI[25]),
+        rows(KI, KI[26], KI[27]),
+        rows(KI, KI[28], KI[29]),
+        rows(KM, KI[30], KI[31]),
+        rows(KI, KI[32], KI[33]),
+        rows(KL, KI[34], KI[35]),
+        rows(KL, KI[36], KI[37]),
+        rows(KI, KI[38], KI[39]),
+        rows(KI, KI[40], KI[41]),
+        rows(KI, KI[42], KI[43]),
+        rows(KV, KI[44], KI[45]),
+        rows(KI, KI[46], KI[47]),
     )
 
 
