@@ -55,6 +55,27 @@ if _numba is not None and JIT_ENABLED and not os.environ.get("NUMBA_CACHE_DIR"):
     _numba.config.CACHE_DIR = _cache_dir()
 
 
+def _no_literal_specialisation(disp: Any) -> None:
+    """Type calls to ``disp`` from compiled code with plain (non-literal) argument types.
+
+    numba types a constant argument in a compiled caller (``f(x, 0)``,
+    ``g(..., False)``) as a literal and compiles one specialisation of the
+    callee, with its whole call tree, per constant value: five of one
+    curve evaluator and two of Newton's method, 10 s of a cold start.  No
+    kernel of openimp depends on the value of a constant argument at typing
+    time, so every call is typed as the plain type instead.
+    """
+    from numba.core.types import unliteral
+
+    template = disp.get_call_template
+
+    def get_call_template(args: Any, kws: Any) -> Any:
+        return template(tuple(unliteral(a) for a in args),
+                        {k: unliteral(v) for k, v in kws.items()})
+
+    disp.get_call_template = get_call_template
+
+
 def njit(*args: Any, **kwargs: Any) -> Any:
     """Compile a function in nopython mode with an on-disk cache (or leave it as is).
 
@@ -74,7 +95,9 @@ def njit(*args: Any, **kwargs: Any) -> Any:
     def wrap(fn: F) -> F:
         if not JIT_ENABLED:
             return fn
-        return _numba.njit(**kwargs)(fn)  # type: ignore[no-any-return]
+        disp = _numba.njit(**kwargs)(fn)
+        _no_literal_specialisation(disp)
+        return disp  # type: ignore[no-any-return]
 
     if len(args) == 1 and callable(args[0]) and not kwargs.get("_called", False):
         return wrap(args[0])
