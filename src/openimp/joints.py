@@ -807,7 +807,7 @@ def _higher_nvar(code: int) -> int:
     return 0
 
 
-@njit
+@njit(inline="always")
 def _higher_phi(code: int, q: np.ndarray, c: np.ndarray, out: np.ndarray) -> None:
     """Phi(q) of a higher pair."""
     if _is_planar(code):
@@ -852,7 +852,7 @@ def _higher_phi(code: int, q: np.ndarray, c: np.ndarray, out: np.ndarray) -> Non
         _eye(out)
 
 
-@njit
+@njit(inline="always")
 def _higher_Q(code: int, q: np.ndarray, c: np.ndarray, out: np.ndarray) -> None:
     """Q_g of a higher pair into out[g] (already zeroed by joint_Q)."""
     if _is_planar(code):
@@ -901,7 +901,7 @@ def _higher_Q(code: int, q: np.ndarray, c: np.ndarray, out: np.ndarray) -> None:
                 blk[i, 3] = -(blk[i, 0] * p0 + blk[i, 1] * p1)
 
 
-@njit
+@njit(inline="always")
 def _higher_dQ(code: int, q: np.ndarray, c: np.ndarray, out: np.ndarray) -> None:
     """Q_{g,i} of a higher pair into out[g, i] (already zeroed by joint_dQ)."""
     if _is_planar(code):

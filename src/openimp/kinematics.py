@@ -172,7 +172,7 @@ def right_phi(
         mm4(M, im, Phi, h, W, iw)
 
 
-@njit(nrt=False)
+@njit(nrt=False, inline="always")
 def general_phis(KP: tuple, q: np.ndarray, scr: np.ndarray) -> None:
     """Phi_h of every joint of a general kind (K.gen) into scr[8 + h], through joint_phi.
 
@@ -255,7 +255,7 @@ def tree_pass(
     return err
 
 
-@njit(nrt=False)
+@njit(nrt=False, inline="always")
 def screw_columns(
     KP: tuple, q: np.ndarray, A: np.ndarray, Dh: np.ndarray, Qb: np.ndarray, scr: np.ndarray
 ) -> None:
@@ -299,7 +299,7 @@ def screw_columns(
         _screw_general(K.jcode[h], q, K.jq0[h], K.jnv[h], K.const, K.jc0[h], A, h, Dh, Qb, scr)
 
 
-@njit(nrt=False)
+@njit(nrt=False, inline="always")
 def _screw_general(
     code: int, q: np.ndarray, a0: int, nv: int, const: np.ndarray, c0: int, A: np.ndarray,
     h: int, Dh: np.ndarray, Qb: np.ndarray, scr: np.ndarray,
@@ -950,7 +950,7 @@ def rate_arrays(KP: tuple, nq: int) -> tuple:
             np.zeros(max(m, 1)))
 
 
-@njit(nrt=False)
+@njit(nrt=False, inline="always")
 def joint_rates(
     KP: tuple, q: np.ndarray, dcols: np.ndarray, G: np.ndarray, psid: np.ndarray,
     psidd: np.ndarray, prow: np.ndarray, pcol: np.ndarray, pinv: np.ndarray,
