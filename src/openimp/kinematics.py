@@ -57,7 +57,7 @@ SGC_DETERMINED = 3
 # =============================================================================
 # 4x4 helpers
 # =============================================================================
-@njit(inline="always")
+@njit(nrt=False, forceinline=True)
 def inv4(a: np.ndarray, out: np.ndarray) -> None:
     """Rigid inverse of a homogeneous 4x4 whose rotation part is orthogonal."""
     for i in range(3):
@@ -71,7 +71,7 @@ def inv4(a: np.ndarray, out: np.ndarray) -> None:
     out[3, 3] = 1.0
 
 
-@njit(inline="always")
+@njit(nrt=False, forceinline=True)
 def gen_inv4(a: np.ndarray, out: np.ndarray) -> None:
     """Inverse of a homogeneous 4x4 whose 3x3 block need not be orthogonal.
 
@@ -105,7 +105,7 @@ def gen_inv4(a: np.ndarray, out: np.ndarray) -> None:
 # =============================================================================
 # Postures and loop equations
 # =============================================================================
-@njit(inline="always")
+@njit(nrt=False, forceinline=True)
 def mm4(a: np.ndarray, ia: int, b: np.ndarray, ib: int, out: np.ndarray, io: int) -> None:
     """out[io] = a[ia] @ b[ib] for stacks of homogeneous 4x4 matrices.
 
@@ -127,7 +127,7 @@ def mm4(a: np.ndarray, ia: int, b: np.ndarray, ib: int, out: np.ndarray, io: int
     out[io, 3, 3] = 1.0
 
 
-@njit(inline="always")
+@njit(nrt=False, forceinline=True)
 def right_phi(
     code: int, q: np.ndarray, a0: int, M: np.ndarray, im: int, W: np.ndarray, iw: int,
     inverse: bool, Phi: np.ndarray, h: int, scr: np.ndarray,
@@ -492,14 +492,24 @@ def normalise_er(KP: tuple, q: np.ndarray) -> None:
                 q[e0 + t] /= s
 
 
+def plain(fn: Any) -> Any:
+    """The Python function behind a compiled one (itself without numba).
+
+    The scratch allocators below are compiled for the kernels that allocate
+    (the batch, the rates); Python callers run the same code uncompiled,
+    where numpy allocates faster than a compiled function returns arrays.
+    """
+    return getattr(fn, "py_func", fn)
+
+
 @njit
-def work_arrays(KP: tuple, nq: int) -> tuple:
+def work_arrays(K: Any, nq: int) -> tuple:
     """Scratch arrays of one solver, in the order the kernels take them.
 
     (T0, A, Dh, J, E, T, prow, pcol, pinv, mult, dq, Qb, scr, used); scr holds
     8 matrices of scratch and then Phi_h of every joint of a general kind.
+    ``K``: the kernel arrays (:data:`~openimp.system.KData`).
     """
-    K = unpack(KP)
     nj = K.jcode.shape[0]
     nb = K.order.shape[0]
     m = 6 * K.L.shape[0] + K.er.shape[0]
@@ -514,9 +524,9 @@ def work_arrays(KP: tuple, nq: int) -> tuple:
 class Work:
     """Scratch arrays of one solver (allocated once per sweep, reused every step)."""
 
-    def __init__(self, KP: tuple, nq: int) -> None:
+    def __init__(self, K: Any, nq: int) -> None:
         (self.T0, self.A, self.Dh, self.J, self.E, self.T, self.prow, self.pcol, self.pinv,
-         self.mult, self.dq, self.Qb, self.scr, self.used) = work_arrays(KP, nq)
+         self.mult, self.dq, self.Qb, self.scr, self.used) = plain(work_arrays)(K, nq)
 
     def eval_tuple(self) -> tuple[np.ndarray, ...]:
         """The arrays :func:`evaluate` takes."""
@@ -636,6 +646,19 @@ def derivative_matrix(
 
 
 @njit
+def sweep_arrays(K: Any, nq: int, nd: int, want_rates: bool) -> tuple:
+    """Scratch arrays of :func:`_sweep_steps`, in the order it takes them.
+
+    :func:`work_arrays`, :func:`rate_arrays` (empty without rates), then
+    G, Gp (first derivatives now and one step back), qtry, isdriver, dprev
+    and dnew (driver moves).
+    """
+    return (work_arrays(K, nq) + rate_arrays(K, nq if want_rates else 0)
+            + (np.zeros((nq, nd)), np.zeros((nq, nd)), np.zeros(nq), np.zeros(nq, np.bool_),
+               np.zeros(nd), np.zeros(nd)))
+
+
+@njit
 def sweep_kernel(
     KP: tuple, q: np.ndarray, sgc: np.ndarray, dcols: np.ndarray, dvals: np.ndarray,
     tol: float, ptol: float, maxit: int, maxhalve: int,
@@ -654,18 +677,15 @@ def sweep_kernel(
     accelerations ``ad[k]`` come from the same final elimination
     (:func:`joint_rates`).  Returns (steps solved, status of the first failure
     or OK).
+
+    This is :func:`_sweep_steps` on the scratch of :func:`sweep_arrays`, for
+    compiled callers (the batch); :func:`sweep` makes the two calls itself,
+    which spares a cold start the compilation of this wrapper.
     """
-    nq = q.shape[0]
-    nd = dcols.shape[0]
-    T0, A, Dh, J, E, T, prow, pcol, pinv, mult, dq, Qb, scr, used = work_arrays(KP, nq)
-    D4, B4, omega, Kh, dQb, qd, qdd, rhs = rate_arrays(KP, nq if want_rates else 0)
     return _sweep_steps(
         KP, q, sgc, dcols, dvals, tol, ptol, maxit, maxhalve, Qout, quality, rank_out, fgc_out,
         iters_out, want_rates, rd, ad, QDout, QDDout, cons_out,
-        T0, A, Dh, J, E, T, prow, pcol, pinv, mult, dq, Qb, scr, used,
-        D4, B4, omega, Kh, dQb, qd, qdd, rhs,
-        np.zeros((nq, nd)), np.zeros((nq, nd)), q.copy(), np.zeros(nq, np.bool_),
-        np.zeros(nd), np.zeros(nd))
+        *sweep_arrays(unpack(KP), q.shape[0], dcols.shape[0], want_rates))
 
 
 @njit(nrt=False)
@@ -938,9 +958,8 @@ def drift_terms(
 
 
 @njit
-def rate_arrays(KP: tuple, nq: int) -> tuple:
+def rate_arrays(K: Any, nq: int) -> tuple:
     """Scratch arrays of :func:`joint_rates`: (D4, B4, omega, Kh, dQb, qd, qdd, rhs)."""
-    K = unpack(KP)
     nj = K.jcode.shape[0]
     nb = K.order.shape[0]
     m = 6 * K.L.shape[0] + K.er.shape[0]
@@ -1028,9 +1047,9 @@ def rates_of(
 ) -> None:
     """Body postures, velocity and acceleration operators for every step of a sweep."""
     nq = Qs.shape[1]
-    w = work_arrays(KP, nq)
+    w = work_arrays(unpack(KP), nq)
     A, E, Qb, scr = w[1], w[4], w[11], w[12]
-    r = rate_arrays(KP, nq)
+    r = rate_arrays(unpack(KP), nq)
     D4, B4, Kh, dQb = r[0], r[1], r[3], r[4]
     for s in range(Qs.shape[0]):
         tree_pass(KP, Qs[s], A, T0_out[s], E, scr)
@@ -1052,7 +1071,7 @@ def tracks(
     a million-step sweep needs no array of every body's posture.
     """
     K = unpack(KP)
-    w = work_arrays(KP, Qs.shape[1])
+    w = work_arrays(K, Qs.shape[1])
     T0, A, E, scr = w[0], w[1], w[4], w[12]
     for s in range(Qs.shape[0]):
         tree_pass(KP, Qs[s], A, T0, E, scr)
@@ -1466,9 +1485,11 @@ def sweep(
     QD = np.zeros(shape_r)
     QDD = np.zeros(shape_r)
     cons = np.zeros(nsteps if want else 1)
-    done, status = sweep_kernel(
+    # sweep_kernel's two steps, from Python: one compiled function less
+    done, status = _sweep_steps(
         KP, q, sgc, dcols, np.ascontiguousarray(dvals), tol, pivot_tol, maxit, maxhalve,
-        Qout, quality, rank, fgc, iters, want, rd, ad, QD, QDD, cons)
+        Qout, quality, rank, fgc, iters, want, rd, ad, QD, QDD, cons,
+        *plain(sweep_arrays)(system.K, nq, len(dcols), want))
     names = [system.var_names[c] for c in dcols]
     msg = ""
     if done < nsteps:
@@ -1525,7 +1546,7 @@ def check_drivers(
     Raises InputError naming the offending driver or the free coordinates
     that need drivers.
     """
-    w = Work(system.KP, system.nq)
+    w = Work(system.K, system.nq)
     _err, rank, det, _rest = evaluate(system.KP, q, sgc, pivot_tol, *w.eval_tuple())
     nq = system.nq
     if sgc_residual(w.T, sgc, w.prow, rank, nq) > 1e-6:
@@ -1557,7 +1578,7 @@ def check_drivers(
 
 def rank_full(system: System, q: np.ndarray) -> int:
     """Rank of the whole Jacobian at ``q`` (nothing specified)."""
-    w = Work(system.KP, system.nq)
+    w = Work(system.K, system.nq)
     sgc = np.zeros(system.nq, np.bool_)
     _, rank, _, _ = evaluate(system.KP, q, sgc, 1e-10, *w.eval_tuple())
     return int(rank)

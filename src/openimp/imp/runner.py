@@ -509,7 +509,7 @@ def _free_column(system: Any, q: np.ndarray | None) -> int | None:
     """A free joint variable to hold when a run has no input motion (None for a structure)."""
     from openimp.kinematics import Work, evaluate
 
-    w = Work(system.KP, system.nq)
+    w = Work(system.K, system.nq)
     qi = system.q0.copy() if q is None else system.to_internal(q)
     sgc = np.zeros(system.nq, np.bool_)
     _, rank, _, _ = evaluate(system.KP, qi, sgc, 1e-10, *w.eval_tuple())
