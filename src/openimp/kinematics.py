@@ -525,13 +525,22 @@ class Work:
     """Scratch arrays of one solver (allocated once per sweep, reused every step)."""
 
     def __init__(self, K: Any, nq: int) -> None:
+        self.arrays = plain(work_arrays)(K, nq)
         (self.T0, self.A, self.Dh, self.J, self.E, self.T, self.prow, self.pcol, self.pinv,
-         self.mult, self.dq, self.Qb, self.scr, self.used) = plain(work_arrays)(K, nq)
+         self.mult, self.dq, self.Qb, self.scr, self.used) = self.arrays
 
-    def eval_tuple(self) -> tuple[np.ndarray, ...]:
-        """The arrays :func:`evaluate` takes."""
-        return (self.T0, self.A, self.Dh, self.J, self.E, self.T, self.prow, self.pcol,
-                self.pinv, self.mult, self.Qb, self.scr, self.used)
+    def eliminate(self, KP: tuple, q: np.ndarray, sgc: np.ndarray,
+                  ptol: float) -> tuple[int, float, float]:
+        """Evaluate and eliminate the loop equations at ``q`` (:func:`evaluate`).
+
+        Returns (rank, quality index, largest unpivoted entry); the postures,
+        screws, tableau and pivots stay in these arrays.  Runs as one
+        iteration of the compiled :func:`newton` that accepts any correction
+        (on a copy of ``q``): no compiled entry of its own, which would cost a
+        cold start about a second.
+        """
+        _, _, rank, det, rest = newton(KP, q.copy(), sgc, np.inf, ptol, 1, False, *self.arrays)
+        return rank, det, rest
 
 
 @njit(nrt=False, inline="always")
@@ -1041,50 +1050,45 @@ def joint_rates(
 
 
 @njit
-def rates_of(
-    KP: tuple, Qs: np.ndarray, QDs: np.ndarray, QDDs: np.ndarray,
-    omega_out: np.ndarray, alpha_out: np.ndarray, T0_out: np.ndarray,
-) -> None:
-    """Body postures, velocity and acceleration operators for every step of a sweep."""
-    nq = Qs.shape[1]
-    w = work_arrays(unpack(KP), nq)
-    A, E, Qb, scr = w[1], w[4], w[11], w[12]
-    r = rate_arrays(unpack(KP), nq)
-    D4, B4, Kh, dQb = r[0], r[1], r[3], r[4]
-    for s in range(Qs.shape[0]):
-        tree_pass(KP, Qs[s], A, T0_out[s], E, scr)
-        operators(KP, Qs[s], A, D4, B4, Qb, dQb, scr)
-        tree_operators(KP, QDs[s], D4, Kh, False, omega_out[s])
-        drift_terms(KP, QDs[s], D4, B4, omega_out[s], Kh)
-        tree_operators(KP, QDDs[s], D4, Kh, True, alpha_out[s])
-
-
-@njit
 def tracks(
-    KP: tuple, Qs: np.ndarray, bodies: np.ndarray, points: np.ndarray,
-    T_out: np.ndarray, p_out: np.ndarray,
+    KP: tuple, Qs: np.ndarray, QDs: np.ndarray, QDDs: np.ndarray, bodies: np.ndarray,
+    points: np.ndarray, T_out: np.ndarray, p_out: np.ndarray, omega_out: np.ndarray,
+    alpha_out: np.ndarray,
 ) -> None:
-    """Postures of selected bodies and positions of selected points for every row of ``Qs``.
+    """Postures of selected bodies, positions of selected points and, given rates, body rates.
 
-    A forward pass along the tree per step; only the selection is stored
-    (T_out: steps x len(bodies) x 4 x 4, p_out: steps x len(points) x 3), so
-    a million-step sweep needs no array of every body's posture.
+    A forward pass along the tree per row of ``Qs``; only the selection is
+    stored (T_out: steps x len(bodies) x 4 x 4, p_out: steps x len(points) x
+    3), so a million-step sweep needs no array of every body's posture.
+    With joint velocities ``QDs`` and accelerations ``QDDs`` (one row per
+    step; none for postures only) the velocity and acceleration operators of
+    every body (7.22, 8.52) go to omega_out and alpha_out (steps x nb x 4 x 4).
+    One kernel for both, as each compiled entry costs a cold start seconds.
     """
     K = unpack(KP)
-    w = work_arrays(K, Qs.shape[1])
-    T0, A, E, scr = w[0], w[1], w[4], w[12]
+    nq = Qs.shape[1]
+    w = work_arrays(K, nq)
+    T0, A, E, Qb, scr = w[0], w[1], w[4], w[11], w[12]
+    rates = QDs.shape[0] > 0
+    r = rate_arrays(K, nq if rates else 0)
+    D4, B4, Kh, dQb = r[0], r[1], r[3], r[4]
     for s in range(Qs.shape[0]):
         tree_pass(KP, Qs[s], A, T0, E, scr)
         for k in range(bodies.shape[0]):
-            for r in range(4):
+            for i in range(4):
                 for c in range(4):
-                    T_out[s, k, r, c] = T0[bodies[k], r, c]
+                    T_out[s, k, i, c] = T0[bodies[k], i, c]
         for k in range(points.shape[0]):
             p = points[k]
             Tb = T0[K.ptbody[p]]
-            r = K.ptlocal[p]
+            x = K.ptlocal[p]
             for i in range(3):
-                p_out[s, k, i] = Tb[i, 0] * r[0] + Tb[i, 1] * r[1] + Tb[i, 2] * r[2] + Tb[i, 3]
+                p_out[s, k, i] = Tb[i, 0] * x[0] + Tb[i, 1] * x[1] + Tb[i, 2] * x[2] + Tb[i, 3]
+        if rates:
+            operators(KP, Qs[s], A, D4, B4, Qb, dQb, scr)
+            tree_operators(KP, QDs[s], D4, Kh, False, omega_out[s])
+            drift_terms(KP, QDs[s], D4, B4, omega_out[s], Kh)
+            tree_operators(KP, QDDs[s], D4, Kh, True, alpha_out[s])
 
 
 # =============================================================================
@@ -1242,8 +1246,9 @@ class SweepResult:
             om = np.zeros((self.nsteps, nb, 4, 4))
             al = np.zeros((self.nsteps, nb, 4, 4))
             T0 = np.zeros((self.nsteps, nb, 4, 4))
-            rates_of(self.system.KP, np.ascontiguousarray(self._q), self._qd, self._qdd,
-                     om, al, T0)
+            tracks(self.system.KP, np.ascontiguousarray(self._q), self._qd, self._qdd,
+                   np.arange(nb), np.zeros(0, np.int64), T0, np.zeros((self.nsteps, 0, 3)),
+                   om, al)
             Ls = self.system.length_scale
             om[..., :3, 3] *= Ls
             al[..., :3, 3] *= Ls
@@ -1343,8 +1348,10 @@ class SweepResult:
     def _track(self, bodies: list[int], points: list[int]) -> tuple[np.ndarray, np.ndarray]:
         T = np.zeros((self.nsteps, len(bodies), 4, 4))
         p = np.zeros((self.nsteps, len(points), 3))
-        tracks(self.system.KP, np.ascontiguousarray(self._q), np.array(bodies, np.int64),
-               np.array(points, np.int64), T, p)
+        none = np.zeros((0, self.system.nq))
+        tracks(self.system.KP, np.ascontiguousarray(self._q), none, none,
+               np.array(bodies, np.int64), np.array(points, np.int64), T, p,
+               np.zeros((0, 0, 4, 4)), np.zeros((0, 0, 4, 4)))
         Ls = self.system.length_scale
         T[..., :3, 3] *= Ls
         return T, p * Ls
@@ -1547,7 +1554,7 @@ def check_drivers(
     that need drivers.
     """
     w = Work(system.K, system.nq)
-    _err, rank, det, _rest = evaluate(system.KP, q, sgc, pivot_tol, *w.eval_tuple())
+    rank, det, _rest = w.eliminate(system.KP, q, sgc, pivot_tol)
     nq = system.nq
     if sgc_residual(w.T, sgc, w.prow, rank, nq) > 1e-6:
         # find which driver is determined: the ones with a residual in an unpivoted row
@@ -1580,7 +1587,7 @@ def rank_full(system: System, q: np.ndarray) -> int:
     """Rank of the whole Jacobian at ``q`` (nothing specified)."""
     w = Work(system.K, system.nq)
     sgc = np.zeros(system.nq, np.bool_)
-    _, rank, _, _ = evaluate(system.KP, q, sgc, 1e-10, *w.eval_tuple())
+    rank = w.eliminate(system.KP, q, sgc, 1e-10)[0]
     return int(rank)
 
 

@@ -507,12 +507,12 @@ def _why(msg: str) -> str:
 
 def _free_column(system: Any, q: np.ndarray | None) -> int | None:
     """A free joint variable to hold when a run has no input motion (None for a structure)."""
-    from openimp.kinematics import Work, evaluate
+    from openimp.kinematics import Work
 
     w = Work(system.K, system.nq)
     qi = system.q0.copy() if q is None else system.to_internal(q)
     sgc = np.zeros(system.nq, np.bool_)
-    _, rank, _, _ = evaluate(system.KP, qi, sgc, 1e-10, *w.eval_tuple())
+    rank = w.eliminate(system.KP, qi, sgc, 1e-10)[0]
     piv = set(int(c) for c in w.pcol[:rank])
     for c in range(system.nq):
         if c not in piv and system.var_kinds[c] != "er":
