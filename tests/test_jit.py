@@ -10,12 +10,13 @@ from openimp._jit import JIT_ENABLED, njit, rows
 pytestmark = pytest.mark.skipif(not JIT_ENABLED, reason="kernels not compiled (OPENIMP_NOJIT)")
 
 
-@njit
+# not cached: the callee's signatures are seen only when it compiles in this process
+@njit(cache=False)
 def _scaled(x: float, k: int) -> float:
     return x * k
 
 
-@njit
+@njit(cache=False)
 def _caller(x: float) -> float:
     # constant arguments: numba would type them Literal[int](2), Literal[int](3)
     return _scaled(x, 2) + _scaled(x, 3)

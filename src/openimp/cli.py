@@ -130,9 +130,10 @@ def _cmd_check(args: argparse.Namespace) -> int:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    from openimp import io
+    from openimp import _warm, io
     from openimp.errors import InputError
 
+    _warm.start()  # on a cold kernel cache the rate kernels compile on the other core
     try:
         deck = _load(args.deck)
     except InputError as exc:
