@@ -48,3 +48,26 @@ def test_rows_is_a_view_of_rows_o_to_o_plus_n():
     v1, v2, v3 = _views(a1, a2, a3, 2, 3)
     v3[1, 2, 3] = -7.0
     assert a3[3, 2, 3] == -7.0
+
+
+def test_prune_caches_keeps_the_current_and_the_newest(tmp_path):
+    """Of five older numba-* directories and the current one, the current and the
+    two most recently modified stay; other entries of the base are untouched."""
+    import os
+
+    from openimp._jit import prune_caches
+
+    old = []
+    for i in range(5):
+        d = tmp_path / f"numba-{i:016x}"
+        d.mkdir()
+        (d / "x.nbi").write_bytes(b"")
+        os.utime(d, (1000.0 + i, 1000.0 + i))
+        old.append(d)
+    (tmp_path / "other").mkdir()
+    current = tmp_path / "numba-current"
+    removed = prune_caches(str(current), keep=3)
+    assert sorted(removed) == sorted(str(d) for d in old[:3])
+    left = sorted(p.name for p in tmp_path.iterdir())
+    assert left == sorted(["other", old[3].name, old[4].name])
+    assert prune_caches(str(current), keep=3) == []

@@ -51,8 +51,34 @@ def _cache_dir() -> str:
     return os.path.join(base, "numba-" + _source_digest())
 
 
+def prune_caches(current: str, keep: int = 3) -> list[str]:
+    """Remove the cache directories of older source versions beside ``current``.
+
+    Every edit or upgrade of openimp starts a new ``numba-<digest>`` directory;
+    all but the ``keep`` most recently modified ones (``current`` always
+    stays) are removed.  Returns the removed paths.  Removing one in use by
+    another version only makes that version compile again.
+    """
+    import shutil
+
+    base = os.path.dirname(current)
+    try:
+        names = [n for n in os.listdir(base) if n.startswith("numba-")]
+    except OSError:
+        return []
+    paths = [os.path.join(base, n) for n in names if os.path.join(base, n) != current]
+    paths.sort(key=lambda p: os.path.getmtime(p) if os.path.exists(p) else 0.0, reverse=True)
+    removed = []
+    for p in paths[max(keep - 1, 0):]:
+        shutil.rmtree(p, ignore_errors=True)
+        removed.append(p)
+    return removed
+
+
 if _numba is not None and JIT_ENABLED and not os.environ.get("NUMBA_CACHE_DIR"):
     _numba.config.CACHE_DIR = _cache_dir()
+    if not os.path.isdir(_numba.config.CACHE_DIR):  # a new source version: tidy up once
+        prune_caches(_numba.config.CACHE_DIR)
 
 
 def _no_literal_specialisation(disp: Any) -> None:
