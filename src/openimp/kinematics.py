@@ -330,7 +330,7 @@ def _screw_general(
         Dh[col, 5] = Mp[1, 0]
 
 
-@njit(nrt=False)
+@njit(nrt=False, inline="always")
 def loop_jacobian(
     KP: tuple, q: np.ndarray, A: np.ndarray, Dh: np.ndarray, J: np.ndarray, Qb: np.ndarray,
     scr: np.ndarray,
@@ -361,7 +361,7 @@ def loop_jacobian(
             J[r + k, e0 + t] = 2.0 * q[e0 + t]
 
 
-@njit(nrt=False)
+@njit(nrt=False, inline="always")
 def gauss_jordan(
     J: np.ndarray, E: np.ndarray, sgc: np.ndarray, tol: float, T: np.ndarray,
     prow: np.ndarray, pcol: np.ndarray, pinv: np.ndarray, mult: np.ndarray, used: np.ndarray,
@@ -437,7 +437,7 @@ def gauss_jordan(
     return rank, det, rest
 
 
-@njit(nrt=False)
+@njit(nrt=False, inline="always")
 def replay(
     prow: np.ndarray, pinv: np.ndarray, mult: np.ndarray, rank: int, e: np.ndarray
 ) -> None:
@@ -477,7 +477,7 @@ def sgc_residual(T: np.ndarray, sgc: np.ndarray, prow: np.ndarray, rank: int, n:
     return worst
 
 
-@njit(nrt=False)
+@njit(nrt=False, inline="always")
 def normalise_er(KP: tuple, q: np.ndarray) -> None:
     """Put every Euler-Rodrigues block back on the unit sphere (digest 9.27)."""
     K = unpack(KP)
