@@ -524,8 +524,9 @@ def work_arrays(K: Any, nq: int) -> tuple:
 class Work:
     """Scratch arrays of one solver (allocated once per sweep, reused every step)."""
 
-    def __init__(self, K: Any, nq: int) -> None:
-        self.arrays = plain(work_arrays)(K, nq)
+    def __init__(self, K: Any, nq: int, arrays: tuple | None = None) -> None:
+        # arrays: the first 14 of sweep_arrays, to share them with a sweep
+        self.arrays = plain(work_arrays)(K, nq) if arrays is None else arrays[:14]
         (self.T0, self.A, self.Dh, self.J, self.E, self.T, self.prow, self.pcol, self.pinv,
          self.mult, self.dq, self.Qb, self.scr, self.used) = self.arrays
 
@@ -1478,7 +1479,9 @@ def sweep(
     sgc = np.zeros(nq, np.bool_)
     sgc[dcols] = True
     q = _start_posture(system, start)
-    held, rank0, quality0 = check_drivers(system, q, sgc, dcols, pivot_tol, hold_free)
+    arrays = plain(sweep_arrays)(system.K, nq, len(dcols), want)
+    held, rank0, quality0 = check_drivers(system, q, sgc, dcols, pivot_tol, hold_free,
+                                          Work(system.K, nq, arrays))
     # free coordinates that are held (hold_free, or passive) are specified at
     # their values, as IMP holds FGCs in kinematic mode; this keeps the
     # pivoting from trading one free coordinate for another between steps
@@ -1496,7 +1499,7 @@ def sweep(
     done, status = _sweep_steps(
         KP, q, sgc, dcols, np.ascontiguousarray(dvals), tol, pivot_tol, maxit, maxhalve,
         Qout, quality, rank, fgc, iters, want, rd, ad, QD, QDD, cons,
-        *plain(sweep_arrays)(system.K, nq, len(dcols), want))
+        *arrays)
     names = [system.var_names[c] for c in dcols]
     msg = ""
     if done < nsteps:
@@ -1544,16 +1547,17 @@ def _failure_message(
 
 def check_drivers(
     system: System, q: np.ndarray, sgc: np.ndarray, dcols: np.ndarray, pivot_tol: float,
-    hold_free: bool,
+    hold_free: bool, w: Work | None = None,
 ) -> tuple[np.ndarray, int, float]:
     """Check the drivers at posture ``q``: not determined by the constraints, enough of them.
 
     Returns the free coordinates to hold (all of them with ``hold_free``,
     otherwise only passive ones), the rank and the quality index there.
     Raises InputError naming the offending driver or the free coordinates
-    that need drivers.
+    that need drivers.  ``w``: scratch to use (a new one otherwise).
     """
-    w = Work(system.K, system.nq)
+    if w is None:
+        w = Work(system.K, system.nq)
     rank, det, _rest = w.eliminate(system.KP, q, sgc, pivot_tol)
     nq = system.nq
     if sgc_residual(w.T, sgc, w.prow, rank, nq) > 1e-6:

@@ -14,6 +14,7 @@ from __future__ import annotations
 from collections import namedtuple
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from functools import cached_property
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -188,10 +189,12 @@ class System:
         """Rows of the Jacobian: 6 per loop plus NC."""
         return 6 * self.nloops + self.nconstraints
 
-    @property
+    @cached_property
     def var_scale(self) -> np.ndarray:
-        """Factor from internal to model units per variable."""
-        return np.array([self.length_scale if k == "length" else 1.0 for k in self.var_kinds])
+        """Factor from internal to model units per variable (read-only)."""
+        v = np.array([self.length_scale if k == "length" else 1.0 for k in self.var_kinds])
+        v.setflags(write=False)
+        return v
 
     def body_index(self, body: str) -> int:
         """Index of a body by name (InputError if unknown)."""
