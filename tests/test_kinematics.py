@@ -929,7 +929,7 @@ def _batch_fourbar(b: float, c: float) -> Model:
 def test_sweep_batch_equals_single_sweeps():
     """sweep_batch over variants (other coupler and rocker lengths, per-variant crank
     values) gives exactly what one sweep per variant gives; a variant of another
-    topology is an input error."""
+    topology, or with a point on another body, is an input error."""
     from openimp.kinematics import sweep_batch
 
     dims = [(3.0, 2.5), (3.1, 2.6), (2.9, 2.45)]
@@ -946,6 +946,12 @@ def test_sweep_batch_equals_single_sweeps():
     other.add_joint("revolute", "A", "BASE", "CRANK", origin=(0, 0, 0))
     with pytest.raises(InputError, match="topology"):
         sweep_batch([systems[0], other.compile()], {"A": drv})
+    # same joints and bodies, the point on another body: the packed int arrays differ
+    moved = _batch_fourbar(3.0, 2.5)
+    moved.points.clear()
+    moved.add_point("P", "ROCKER", (2.0, 1.0, 0.0))
+    with pytest.raises(InputError, match="variant 1"):
+        sweep_batch([systems[0], moved.compile()], {"A": drv})
 
 
 def test_replay_applies_the_inverse_of_the_pivoted_block():
