@@ -659,16 +659,30 @@ def derivative_matrix(
 
 
 @njit
+def step_arrays(nq: int, nd: int) -> tuple:
+    """The step loop's own scratch: G, Gp (first derivatives now and one step
+    back), qtry, isdriver, dprev and dnew (driver moves)."""
+    return (np.zeros((nq, nd)), np.zeros((nq, nd)), np.zeros(nq), np.zeros(nq, np.bool_),
+            np.zeros(nd), np.zeros(nd))
+
+
+@njit
 def sweep_arrays(K: Any, nq: int, nd: int, want_rates: bool) -> tuple:
     """Scratch arrays of :func:`_sweep_steps`, in the order it takes them.
 
     :func:`work_arrays`, :func:`rate_arrays` (empty without rates), then
-    G, Gp (first derivatives now and one step back), qtry, isdriver, dprev
-    and dnew (driver moves).
+    :func:`step_arrays`.  Compiled for :func:`sweep_kernel`; from Python use
+    :func:`sweep_arrays_py`, which runs the three allocators uncompiled (this
+    function uncompiled would call the compiled ones and box their arrays).
     """
     return (work_arrays(K, nq) + rate_arrays(K, nq if want_rates else 0)
-            + (np.zeros((nq, nd)), np.zeros((nq, nd)), np.zeros(nq), np.zeros(nq, np.bool_),
-               np.zeros(nd), np.zeros(nd)))
+            + step_arrays(nq, nd))
+
+
+def sweep_arrays_py(K: Any, nq: int, nd: int, want_rates: bool) -> tuple:
+    """:func:`sweep_arrays` for Python callers: numpy allocates, nothing is boxed."""
+    return (plain(work_arrays)(K, nq) + plain(rate_arrays)(K, nq if want_rates else 0)
+            + plain(step_arrays)(nq, nd))
 
 
 @njit
@@ -1478,7 +1492,7 @@ def sweep(
     sgc = np.zeros(nq, np.bool_)
     sgc[dcols] = True
     q = _start_posture(system, start)
-    arrays = plain(sweep_arrays)(system.K, nq, len(dcols), want)
+    arrays = sweep_arrays_py(system.K, nq, len(dcols), want)
     held, rank0, quality0 = check_drivers(system, q, sgc, dcols, pivot_tol, hold_free,
                                           Work(system.K, nq, arrays))
     # free coordinates that are held (hold_free, or passive) are specified at
