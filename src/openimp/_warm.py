@@ -52,7 +52,7 @@ def start() -> subprocess.Popen[bytes] | None:
     try:
         proc = subprocess.Popen(
             [sys.executable, "-m", "openimp._warm"], stdin=subprocess.DEVNULL,
-            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=dict(os.environ),
+            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
         )
     except OSError:
         return None

@@ -186,8 +186,7 @@ def right_phi(
 def general_phis(KP: tuple, q: np.ndarray, scr: np.ndarray) -> None:
     """Phi_h of every joint of a general kind (K.gen) into scr[8 + h], through joint_phi.
 
-    Kept out of the tree loop: a loop without calls lets numba drop the
-    reference counting of the arrays it touches.
+    Computed before the tree loop, which then multiplies by the stored Phi_h.
     """
     K = unpack(KP)
     for k in range(K.gen.shape[0]):
@@ -527,9 +526,8 @@ def work_arrays(K: Any, nq: int) -> tuple:
 class Work:
     """Scratch arrays of one solver (allocated once per sweep, reused every step)."""
 
-    def __init__(self, K: Any, nq: int, arrays: tuple | None = None) -> None:
-        # arrays: the first 14 of sweep_arrays, to share them with a sweep
-        self.arrays = plain(work_arrays)(K, nq) if arrays is None else arrays[:14]
+    def __init__(self, K: Any, nq: int) -> None:
+        self.arrays = plain(work_arrays)(K, nq)
         (self.T0, self.A, self.Dh, self.J, self.E, self.T, self.prow, self.pcol, self.pinv,
          self.mult, self.dq, self.Qb, self.scr, self.used) = self.arrays
 
@@ -671,18 +669,12 @@ def sweep_arrays(K: Any, nq: int, nd: int, want_rates: bool) -> tuple:
     """Scratch arrays of :func:`_sweep_steps`, in the order it takes them.
 
     :func:`work_arrays`, :func:`rate_arrays` (empty without rates), then
-    :func:`step_arrays`.  Compiled for :func:`sweep_kernel`; from Python use
-    :func:`sweep_arrays_py`, which runs the three allocators uncompiled (this
+    :func:`step_arrays`.  Compiled for :func:`sweep_kernel`; :func:`sweep`
+    puts the same together from the three allocators run uncompiled (this
     function uncompiled would call the compiled ones and box their arrays).
     """
     return (work_arrays(K, nq) + rate_arrays(K, nq if want_rates else 0)
             + step_arrays(nq, nd))
-
-
-def sweep_arrays_py(K: Any, nq: int, nd: int, want_rates: bool) -> tuple:
-    """:func:`sweep_arrays` for Python callers: numpy allocates, nothing is boxed."""
-    return (plain(work_arrays)(K, nq) + plain(rate_arrays)(K, nq if want_rates else 0)
-            + plain(step_arrays)(nq, nd))
 
 
 @njit
@@ -1492,9 +1484,11 @@ def sweep(
     sgc = np.zeros(nq, np.bool_)
     sgc[dcols] = True
     q = _start_posture(system, start)
-    arrays = sweep_arrays_py(system.K, nq, len(dcols), want)
-    held, rank0, quality0 = check_drivers(system, q, sgc, dcols, pivot_tol, hold_free,
-                                          Work(system.K, nq, arrays))
+    # one scratch for the driver check and the sweep (what sweep_arrays gives)
+    w = Work(system.K, nq)
+    arrays = (w.arrays + plain(rate_arrays)(system.K, nq if want else 0)
+              + plain(step_arrays)(nq, len(dcols)))
+    held, rank0, quality0 = check_drivers(system, q, sgc, dcols, pivot_tol, hold_free, w)
     # free coordinates that are held (hold_free, or passive) are specified at
     # their values, as IMP holds FGCs in kinematic mode; this keeps the
     # pivoting from trading one free coordinate for another between steps
@@ -1750,10 +1744,10 @@ def sweep_batch(
     s0 = systems[0]
     KI, KL = s0.KP[0], s0.KP[1]
     for i, s in enumerate(systems[1:], start=1):
-        # same joints, loops, tree, points and constants layout: the same int parts
+        # same joints, loops, tree and points: the same int parts (KI's header also
+        # fixes the shapes of the float parts)
         same = (s.var_names == s0.var_names and s.bodies == s0.bodies
-                and np.array_equal(s.KP[0], KI) and np.array_equal(s.KP[1], KL)
-                and s.KP[2].shape == s0.KP[2].shape)
+                and np.array_equal(s.KP[0], KI) and np.array_equal(s.KP[1], KL))
         if not same:
             raise InputError(
                 f"variant {i} ({s.name!r}) does not have the topology and joints of variant 0 "

@@ -68,16 +68,17 @@ def pack(fields: Mapping[str, np.ndarray]) -> tuple[tuple[np.ndarray, ...], Any]
     """
     arrays = [np.asarray(fields[name]) for name in KData._fields]
     head = np.zeros(2 * len(arrays), np.int64)
-    rows = {k: 0 for k in _BUFFERS}
-    rows["i"] = head.size
+    nrows = {k: 0 for k in _BUFFERS}
+    nrows["i"] = head.size
     for f, (kind, a) in enumerate(zip(KFIELDS, arrays, strict=True)):
-        head[2 * f] = rows[kind]
+        head[2 * f] = nrows[kind]
         head[2 * f + 1] = a.shape[0]
-        rows[kind] += a.shape[0]
+        nrows[kind] += a.shape[0]
     nj = len(fields["jcode"])
     bufs = {
-        "i": np.zeros(rows["i"], np.int64), "l": np.zeros((rows["l"], nj), np.int64),
-        "f": np.zeros(rows["f"]), "m": np.zeros((rows["m"], 4, 4)), "v": np.zeros((rows["v"], 4)),
+        "i": np.zeros(nrows["i"], np.int64), "l": np.zeros((nrows["l"], nj), np.int64),
+        "f": np.zeros(nrows["f"]), "m": np.zeros((nrows["m"], 4, 4)),
+        "v": np.zeros((nrows["v"], 4)),
     }
     bufs["i"][:head.size] = head
     views = []
