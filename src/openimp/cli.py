@@ -98,20 +98,22 @@ def _errors(exc: Exception) -> list[str]:
     return [str(exc)]
 
 
-def _load(path: str) -> object:
+def _load(path: str) -> object | None:
+    """The parsed deck, or None after its input errors are printed on stderr."""
+    from openimp.errors import InputError
     from openimp.imp.interp import load
 
-    return load(path)
-
-
-def _cmd_check(args: argparse.Namespace) -> int:
-    from openimp.errors import InputError
-
     try:
-        deck = _load(args.deck)
+        return load(path)
     except InputError as exc:
         for line in _errors(exc):
             print(line, file=sys.stderr)
+        return None
+
+
+def _cmd_check(args: argparse.Namespace) -> int:
+    deck = _load(args.deck)
+    if deck is None:
         return EXIT_INPUT
     specs = deck.specs  # type: ignore[attr-defined]
     print(f"{args.deck}: OK: {len(deck.statements)} statements, "  # type: ignore[attr-defined]
@@ -131,14 +133,10 @@ def _cmd_check(args: argparse.Namespace) -> int:
 
 def _cmd_run(args: argparse.Namespace) -> int:
     from openimp import _warm, io
-    from openimp.errors import InputError
 
     _warm.start()  # on a cold kernel cache the rate kernels compile on the other core
-    try:
-        deck = _load(args.deck)
-    except InputError as exc:
-        for line in _errors(exc):
-            print(line, file=sys.stderr)
+    deck = _load(args.deck)
+    if deck is None:
         return EXIT_INPUT
     out = sys.stdout
 
