@@ -52,8 +52,8 @@ def _check_rates(system: Any, drivers: dict[str, Drive], span: tuple[float, floa
     base = base[np.all(np.abs(base[:, None] - np.array(cs)[None, :]) > 3 * h, axis=1)]
     t = np.sort(np.concatenate([base, *[[c - h, c, c + h] for c in cs]]))
     vals = {k: f(t) for k, f in drivers.items()}
-    res = system.sweep({k: v[0] for k, v in vals.items()}, {k: v[1] for k, v in vals.items()},
-                       {k: v[2] for k, v in vals.items()})
+    res = openimp.sweep(system, {k: v[0] for k, v in vals.items()},
+                        {k: v[1] for k, v in vals.items()}, {k: v[2] for k, v in vals.items()})
     assert res.complete, res.message
     q, qd, qdd = res.q, res.qd, res.qdd
     for c in cs:
@@ -89,9 +89,9 @@ def test_ferguson_paradox() -> None:
     [A, B, C1, C2, C3, D, E1, E2, E3, F, G1, G2, G3] =
     [10 psi, psi, 100/101 psi, -0.025, 0, psi/101, 100/99 psi, 0.025, 0, -psi/99, psi, 0, 0];
     the planet turns 11 psi; sun 3 turns +psi/101 and sun 4 -psi/99 (opposite senses)."""
-    system = ferguson().compile()
+    system = openimp.compile(ferguson())
     assert system.nq == 13 and system.nloops == 3
-    res = system.sweep({"B": TURN})
+    res = openimp.sweep(system, {"B": TURN})
     _complete(res)
     psi = TURN
     want = {
@@ -118,9 +118,9 @@ def test_gear_ratio_and_distance_from_frames() -> None:
     m.add_joint("revolute", "P", "CARRIER", "PLANET", origin=(3, 0, 0), axis=Z, ref=X)
     m.add_joint("gear", "G", "BASE", "PLANET", origin=(0, 0, 0), origin2=(3, 0, 0), axis=Z,
                 ref=X, ratio=2.0)
-    system = m.compile()
+    system = openimp.compile(m)
     assert np.all(np.isfinite(system.K.const))
-    res = system.sweep({"ARM": TURN})
+    res = openimp.sweep(system, {"ARM": TURN})
     _complete(res)
     assert np.allclose(_angle(res.posture("PLANET")), 3 * TURN, atol=1e-10)
     assert np.allclose(res.joint("G")[:, 1], 0.0, atol=1e-12)
@@ -137,13 +137,13 @@ def test_rack_and_pinion(R: float) -> None:
     m.add_joint("prismatic", "SLIDE", "BASE", "RACK", origin=(0, 0, 0), axis=X, ref=Y)
     m.add_joint("rack", "MESH", "RACK", "PINION", origin=(0, 0, 0), origin2=(0, R, 0), axis=Z,
                 ref=X, radius=R)
-    res = m.compile().sweep({"PIN": TURN - np.pi})
+    res = openimp.sweep(openimp.compile(m), {"PIN": TURN - np.pi})
     _complete(res)
     psi = TURN - np.pi
     assert np.max(np.abs(res.joint("SLIDE")[:, 0] - R * psi)) < 1e-12
     assert np.allclose(res.joint("MESH"), np.stack([-R * psi, 0 * psi, 0 * psi], axis=1),
                        atol=1e-12)
-    _check_rates(m.compile(), {"PIN": uniform}, span=(-3.0, 3.0), centres=(-2.0, 0.5, 2.5))
+    _check_rates(openimp.compile(m), {"PIN": uniform}, span=(-3.0, 3.0), centres=(-2.0, 0.5, 2.5))
 
 
 def differential(book_ratio: bool = False) -> openimp.Model:
@@ -176,17 +176,17 @@ def test_bevel_differential() -> None:
     cones).  The book's +tan g1/tan g2 keeps the average (the two meshes are mirror
     images) but turns the spider the wrong way, sigma = -(theta_L - theta_c): the pitch
     cones slip."""
-    system = differential().compile()
+    system = openimp.compile(differential())
     psi = TURN
     left = 0.4 * np.sin(2 * psi)
-    res = system.sweep({"CAR": psi, "L": left})
+    res = openimp.sweep(system, {"CAR": psi, "L": left})
     _complete(res, mobility=2)
     right = res.joint("R")[:, 0]
     assert np.allclose((left + right) / 2, psi, atol=1e-10)
     assert np.allclose(res.joint("SP")[:, 0], left - psi, atol=1e-10)
     assert np.allclose(res.joint("BL")[:, 1], 0.0, atol=1e-12)
     assert np.allclose(res.joint("BR")[:, 1], 0.0, atol=1e-12)
-    res_b = differential(book_ratio=True).compile().sweep({"CAR": psi, "L": left})
+    res_b = openimp.sweep(openimp.compile(differential(book_ratio=True)), {"CAR": psi, "L": left})
     _complete(res_b, mobility=2)
     assert np.allclose(res_b.joint("SP")[:, 0], -(left - psi), atol=1e-10)
 
@@ -245,7 +245,7 @@ def test_cam_translating_follower(form: str) -> None:
     m.add_joint("cam", "B", "CAM", "FOL", origin=(0, 0, 0), origin2=(0, y0, 0), axis=Z, ref=X,
                 **CAM_FORMS[form])
     m.add_point("ROLLER", "FOL", (0, y0, 0))
-    res = m.compile().sweep({"A": TURN})
+    res = openimp.sweep(openimp.compile(m), {"A": TURN})
     _complete(res)
     psi = TURN
     y = E_CAM * np.sin(psi) + np.sqrt(R_CAM ** 2 - (E_CAM * np.cos(psi)) ** 2)
@@ -254,7 +254,7 @@ def test_cam_translating_follower(form: str) -> None:
     assert np.allclose(res.joint("C")[:, 0], y - y0, atol=tol)
     assert np.allclose(res.joint("B")[:, 0], np.pi / 2 - psi, atol=tol)
     assert np.allclose(res.joint("B")[:, 1], -np.pi / 2, atol=tol)
-    _check_rates(m.compile(), {"A": uniform})
+    _check_rates(openimp.compile(m), {"A": uniform})
 
 
 def test_cam_oscillating_follower() -> None:
@@ -280,10 +280,10 @@ def test_cam_oscillating_follower() -> None:
     m.add_joint("revolute", "PIV", "BASE", "ARM", origin=(*O2, 0), axis=Z, ref=X)
     m.add_joint("cam", "B", "CAM", "ARM", origin=(0, 0, 0), origin2=(*P0, 0), axis=Z, ref=X,
                 function=cam_radius_derivs)
-    res = m.compile().sweep({"A": TURN})
+    res = openimp.sweep(openimp.compile(m), {"A": TURN})
     _complete(res)
     assert np.allclose(res.joint("PIV")[:, 0], chi_of(TURN) - chi0, atol=1e-10)
-    _check_rates(m.compile(), {"A": uniform})
+    _check_rates(openimp.compile(m), {"A": uniform})
 
 
 def test_point_curve_follower() -> None:
@@ -300,7 +300,7 @@ def test_point_curve_follower() -> None:
     m.add_joint("prismatic", "C", "BASE", "FOL", origin=(0, y0, 0), axis=Y, ref=X)
     m.add_joint("point_curve", "B", "CAM", "FOL", origin=(0, 0, 0), origin2=(0, y0, 0), axis=Z,
                 ref=X, table=table)
-    res = m.compile().sweep({"A": TURN})
+    res = openimp.sweep(openimp.compile(m), {"A": TURN})
     _complete(res)
     psi = TURN
     y = E_CAM * np.sin(psi) + np.sqrt(R_CAM ** 2 - (E_CAM * np.cos(psi)) ** 2)
@@ -309,7 +309,7 @@ def test_point_curve_follower() -> None:
     t = np.unwrap(np.arctan2(v, u - E_CAM))
     assert np.allclose(res.joint("B")[:, 0], t, atol=1e-7)
     assert np.allclose(res.joint("B")[:, 2], 0.0, atol=1e-12)
-    _check_rates(m.compile(), {"A": uniform})
+    _check_rates(openimp.compile(m), {"A": uniform})
 
 
 def test_flat_faced_follower_book_example_5_2() -> None:
@@ -344,13 +344,13 @@ def test_flat_faced_follower_book_example_5_2() -> None:
                 ref=X, curve=curve)
     m.add_joint("prismatic", "C", "BASE", "FOL", origin=(e, R0, 0), axis=Y, ref=X)
     psi = np.linspace(0.0, 2 * np.pi, 145)
-    res = m.compile().sweep({"A": psi})
+    res = openimp.sweep(openimp.compile(m), {"A": psi})
     _complete(res)
     sd = np.array([s_derivs(p) for p in psi])
     assert np.allclose(res.joint("B"), np.stack([psi, sd[:, 1] - e, 0 * psi], axis=1),
                        atol=1e-10)
     assert np.allclose(res.joint("C")[:, 0], sd[:, 0], atol=1e-10)
-    _check_rates(m.compile(), {"A": uniform})
+    _check_rates(openimp.compile(m), {"A": uniform})
 
 
 def slider_crank(kind: str) -> openimp.Model:
@@ -392,15 +392,15 @@ def test_slot_reproduces_prismatic() -> None:
     = (u - u0)/cos 30, the same coupler-end path, and slot phi2 = the coupler's angle."""
     k = math.tan(math.radians(30))
     u = _slot_u(TURN, 0.5, 1.4, 1.0, -0.2, k)
-    rs = slider_crank("slot").compile().sweep({"CRANK": TURN})
-    rp = slider_crank("prismatic").compile().sweep({"CRANK": TURN})
+    rs = openimp.sweep(openimp.compile(slider_crank("slot")), {"CRANK": TURN})
+    rp = openimp.sweep(openimp.compile(slider_crank("prismatic")), {"CRANK": TURN})
     _complete(rs)
     _complete(rp)
     assert np.allclose(rs.joint("S")[:, 0], u, atol=1e-10)
     assert np.allclose(rp.joint("S")[:, 0], (u - u[0]) / math.cos(math.radians(30)), atol=1e-10)
     assert np.allclose(rs.point("P"), rp.point("P"), atol=1e-10)
     assert np.allclose(rs.joint("S")[:, 1], _angle(rs.posture("COUPLER")), atol=1e-10)
-    _check_rates(slider_crank("slot").compile(), {"CRANK": uniform})
+    _check_rates(openimp.compile(slider_crank("slot")), {"CRANK": uniform})
 
 
 # =============================================================================
@@ -416,13 +416,13 @@ def test_universal_joint_30deg() -> None:
     m.add_joint("revolute", "IN", "BASE", "SHAFT1", origin=(0, 0, 0), axis=X, ref=Y)
     m.add_joint("revolute", "OUT", "BASE", "SHAFT2", origin=(0, 0, 0), axis=axis2, ref=Z)
     m.add_joint("ujoint", "U", "SHAFT1", "SHAFT2", origin=(0, 0, 0), axis=Y, axis2=Z, ref=X)
-    res = m.compile().sweep({"IN": TURN})
+    res = openimp.sweep(openimp.compile(m), {"IN": TURN})
     _complete(res)
     th2 = np.unwrap(np.arctan2(np.sin(TURN), np.cos(TURN) * math.cos(b)))
     assert np.allclose(res.joint("OUT")[:, 0], th2, atol=1e-10)
     assert np.allclose(np.tan(res.joint("OUT")[1:-1:4, 0]),
                        np.tan(TURN[1:-1:4]) / math.cos(b), rtol=1e-8, atol=1e-8)
-    _check_rates(m.compile(), {"IN": uniform})
+    _check_rates(openimp.compile(m), {"IN": uniform})
 
 
 def test_double_cardan_constant_velocity() -> None:
@@ -437,10 +437,10 @@ def test_double_cardan_constant_velocity() -> None:
     m.add_joint("revolute", "OUT", "BASE", "SHAFT2", origin=P2, axis=X, ref=Y)
     m.add_joint("ujoint", "U1", "SHAFT1", "MID", origin=(0, 0, 0), axis=Y, axis2=Z, ref=X)
     m.add_joint("ujoint", "U2", "MID", "SHAFT2", origin=P2, axis=Z, axis2=Y, ref=(-1, 0, 0))
-    res = m.compile().sweep({"IN": TURN})
+    res = openimp.sweep(openimp.compile(m), {"IN": TURN})
     _complete(res)
     assert np.allclose(res.joint("OUT")[:, 0], TURN, atol=1e-10)
-    _check_rates(m.compile(), {"IN": uniform})
+    _check_rates(openimp.compile(m), {"IN": uniform})
 
 
 # =============================================================================
@@ -470,7 +470,7 @@ def test_R_Sp_R() -> None:
     m.add_joint("revolute", "A", "BASE", "PLATE", origin=(0, 0, 0), axis=Z, ref=X)
     m.add_joint("revolute", "C", "BASE", "ROCKER", origin=(0, y0, c0), axis=X, ref=Y)
     m.add_joint("sphere_plane", "SP", "PLATE", "ROCKER", origin=B0, axis=n, ref=u)
-    res = m.compile().sweep({"C": TURN})
+    res = openimp.sweep(openimp.compile(m), {"C": TURN})
     _complete(res)
     phi = TURN
     psi = np.arctan2(y0 + rho * np.cos(phi), a)
@@ -478,7 +478,7 @@ def test_R_Sp_R() -> None:
     h = np.hypot(a, y0 + rho * np.cos(phi))
     assert np.allclose(res.joint("SP")[:, 0], h - np.hypot(a, y0 + rho), atol=1e-10)
     assert np.allclose(res.joint("SP")[:, 1], -rho * np.sin(phi), atol=1e-10)
-    _check_rates(m.compile(), {"C": uniform})
+    _check_rates(openimp.compile(m), {"C": uniform})
 
 
 def test_R_Sp_P_swashplate() -> None:
@@ -494,7 +494,7 @@ def test_R_Sp_P_swashplate() -> None:
     m.add_joint("revolute", "A", "BASE", "PLATE", origin=(0, 0, 0), axis=Z, ref=X)
     m.add_joint("prismatic", "C", "BASE", "PISTON", origin=B0, axis=Z, ref=X)
     m.add_joint("sphere_plane", "SP", "PLATE", "PISTON", origin=B0, axis=n0, ref=Y)
-    res = m.compile().sweep({"A": TURN})
+    res = openimp.sweep(openimp.compile(m), {"A": TURN})
     _complete(res)
     s = -d * math.tan(al) * np.cos(TURN)
     assert np.allclose(res.joint("C")[:, 0], s - s0, atol=1e-10)
@@ -503,7 +503,7 @@ def test_R_Sp_P_swashplate() -> None:
     xyz = _frame_coords(res.posture("PLATE"), B0, axes0, B)
     assert np.allclose(xyz[:, 2], 0.0, atol=1e-12)
     assert np.allclose(res.joint("SP")[:, :2], xyz[:, :2], atol=1e-10)
-    _check_rates(m.compile(), {"A": uniform})
+    _check_rates(openimp.compile(m), {"A": uniform})
 
 
 def test_P_Sp_P_wedge() -> None:
@@ -521,14 +521,14 @@ def test_P_Sp_P_wedge() -> None:
     m.add_joint("sphere_plane", "SP", "WEDGE", "FOL", origin=B0, axis=n,
                 ref=(math.cos(al), 0.0, -math.sin(al)))
     s1 = np.linspace(-1.0, 1.0, 21)
-    res = m.compile().sweep({"W": s1})
+    res = openimp.sweep(openimp.compile(m), {"W": s1})
     _complete(res)
     assert np.allclose(res.joint("F")[:, 0], s1 * math.tan(al), atol=1e-10)
     assert np.allclose(res.joint("SP")[:, 0], -s1 / math.cos(al), atol=1e-10)
     assert np.allclose(res.joint("SP")[:, 1], 0.0, atol=1e-10)
     e4 = res.joint("SP")[:, 2:]
     assert np.allclose(e4, e4[0], atol=1e-10)  # no relative rotation
-    _check_rates(m.compile(), {"W": uniform}, span=(-1.0, 1.0), centres=(-0.5, 0.3))
+    _check_rates(openimp.compile(m), {"W": uniform}, span=(-1.0, 1.0), centres=(-0.5, 0.3))
 
 
 def test_P_Sp_R() -> None:
@@ -544,13 +544,13 @@ def test_P_Sp_R() -> None:
     m.add_joint("prismatic", "W", "BASE", "WEDGE", origin=(0, 0, 0), axis=X, ref=Y)
     m.add_joint("revolute", "R", "BASE", "ROCKER", origin=Op, axis=Y, ref=Z)
     m.add_joint("sphere_plane", "SP", "WEDGE", "ROCKER", origin=B0, axis=n, ref=Y)
-    res = m.compile().sweep({"R": TURN})
+    res = openimp.sweep(openimp.compile(m), {"R": TURN})
     _complete(res)
     Bx = L * np.sin(TURN)
     Bz = Op[2] + L * np.cos(TURN)
     w = Bx + Bz / math.tan(al)
     assert np.allclose(res.joint("W")[:, 0], w - w[0], atol=1e-10)
-    _check_rates(m.compile(), {"R": uniform})
+    _check_rates(openimp.compile(m), {"R": uniform})
 
 
 def test_R_Sg_C() -> None:
@@ -569,7 +569,7 @@ def test_R_Sg_C() -> None:
     m.add_joint("revolute", "A", "BASE", "ARM", origin=(0, 0, 0), axis=Z, ref=X)
     m.add_joint("cylinder", "C", "BASE", "SLIDER", origin=(d, 0, 0), axis=Z, ref=X)
     m.add_joint("sphere_groove", "SG", "ARM", "SLIDER", origin=B0, axis=Y, ref=g0)
-    res = m.compile().sweep({"A": TURN})
+    res = openimp.sweep(openimp.compile(m), {"A": TURN})
     _complete(res)
     psi = TURN
     chi = psi + np.arcsin(d / b * np.sin(psi))
@@ -577,7 +577,7 @@ def test_R_Sg_C() -> None:
     assert np.allclose(res.joint("C")[:, 0], chi, atol=1e-10)
     assert np.allclose(res.joint("C")[:, 1], (h - h0) * math.tan(lam), atol=1e-10)
     assert np.allclose(res.joint("SG")[:, 0], (h - h0) / math.cos(lam), atol=1e-10)
-    _check_rates(m.compile(), {"A": uniform})
+    _check_rates(openimp.compile(m), {"A": uniform})
 
 
 # =============================================================================
@@ -607,7 +607,7 @@ def test_curve_point_not_found_names_joint() -> None:
     m.add_joint("cam", "K1", "CAM", "FOL", origin=(0, 0, 0), origin2=(0, 1.5, 0),
                 table=cam_radius(np.linspace(0, 2 * np.pi, 90, endpoint=False)))
     with pytest.raises(InputError, match=r"'K1'.*not on the pitch curve"):
-        m.compile()
+        openimp.compile(m)
     m2 = openimp.Model()
     m2.add_joint("revolute", "A", "BASE", "CAM", origin=(0, 0, 0))
     m2.add_joint("prismatic", "C", "BASE", "FOL", origin=(0, 1.5, 0), axis=Y)
@@ -615,7 +615,7 @@ def test_curve_point_not_found_names_joint() -> None:
                  curve=lambda t: (math.cos(t), math.sin(t), -math.sin(t), math.cos(t),
                                   -math.cos(t), -math.sin(t), math.sin(t), -math.cos(t)))
     with pytest.raises(InputError, match=r"'K2'.*not on the curve.*0\.5 length units"):
-        m2.compile()
+        openimp.compile(m2)
 
 
 def test_bad_frames_ujoint_names_joint() -> None:
@@ -625,4 +625,4 @@ def test_bad_frames_ujoint_names_joint() -> None:
     m.add_joint("revolute", "OUT", "BASE", "S2", origin=(0, 0, 0), axis=(1, 1, 0))
     m.add_joint("ujoint", "UJ", "S1", "S2", origin=(0, 0, 0), axis=Y, axis2=(0, 1, 1))
     with pytest.raises(InputError, match=r"'UJ'.*do not conform"):
-        m.compile()
+        openimp.compile(m)

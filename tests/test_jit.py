@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from openimp._jit import JIT_ENABLED, njit, rows
+from openimp._jit import JIT_ENABLED, njit, view1, view2, view3, view4
 
 pytestmark = pytest.mark.skipif(not JIT_ENABLED, reason="kernels not compiled (OPENIMP_NOJIT)")
 
@@ -30,24 +30,31 @@ def test_constant_arguments_do_not_specialise_the_callee():
 
 
 @njit
-def _views(a1: np.ndarray, a2: np.ndarray, a3: np.ndarray, o: int, n: int) -> tuple:
-    return rows(a1, o, n), rows(a2, o, n), rows(a3, o, n)
+def _views(buf: np.ndarray, o: int, a: int, b: int, c: int, d: int) -> tuple:
+    return (view1(buf, o, a), view2(buf, o, a, b), view3(buf, o, a, b, c),
+            view4(buf, o, a, b, c, d))
 
 
-def test_rows_is_a_view_of_rows_o_to_o_plus_n():
-    """rows(buf, o, n) equals buf[o:o + n] for 1-, 2- and 3-d buffers, shares their
-    memory (a write through the view reaches the buffer) and may be empty."""
-    a1 = np.arange(10.0)
-    a2 = np.arange(40).reshape(10, 4)
-    a3 = np.arange(160.0).reshape(10, 4, 4)
-    for o, n in ((0, 10), (3, 4), (9, 1), (10, 0), (5, 0)):
-        v1, v2, v3 = _views(a1, a2, a3, o, n)
-        for v, a in ((v1, a1), (v2, a2), (v3, a3)):
-            assert v.shape == a[o:o + n].shape and v.dtype == a.dtype
-            assert np.array_equal(v, a[o:o + n])
-    v1, v2, v3 = _views(a1, a2, a3, 2, 3)
-    v3[1, 2, 3] = -7.0
-    assert a3[3, 2, 3] == -7.0
+def test_views_are_c_ordered_views_of_a_flat_buffer():
+    """view1..view4(buf, o, dims) equal buf[o:o + prod(dims)].reshape(dims) for int, float
+    and bool buffers, share their memory (a write through a view reaches the buffer),
+    may be empty, and a read-only buffer gives read-only views."""
+    for buf in (np.arange(100.0), np.arange(100), np.arange(100) % 3 == 0):
+        for o, dims in ((0, (2, 3, 4, 2)), (7, (1, 2, 2, 4)), (50, (0, 4, 4, 1)),
+                        (99, (1, 1, 1, 1))):
+            vs = _views(buf, o, *dims)
+            for k, v in enumerate(vs):
+                shape = dims[:k + 1]
+                n = int(np.prod(shape))
+                assert v.shape == shape and v.dtype == buf.dtype and v.flags.c_contiguous
+                assert np.array_equal(v, buf[o:o + n].reshape(shape))
+    buf = np.zeros(40)
+    v3 = _views(buf, 4, 2, 2, 2, 1)[2]
+    v3[1, 0, 1] = -7.0
+    assert buf[4 + 4 + 1] == -7.0
+    ro = np.arange(40.0)
+    ro.setflags(write=False)
+    assert not _views(ro, 0, 2, 2, 2, 2)[3].flags.writeable
 
 
 def test_prune_caches_keeps_the_current_and_the_newest(tmp_path):

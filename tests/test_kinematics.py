@@ -18,6 +18,7 @@ import math
 import numpy as np
 import pytest
 
+import openimp
 from openimp import InputError, Model
 
 DEG = math.pi / 180.0
@@ -175,7 +176,7 @@ class Rig:
         return float(np.linalg.norm(o.max(0) - o.min(0))) or 1.0
 
     def compile(self):
-        return self.m.compile()
+        return openimp.compile(self.m)
 
 
 def assert_loops_close(rig: Rig, res, tol: float = 1e-10) -> None:
@@ -307,7 +308,7 @@ def test_fourbar_crank_rocker_freudenstein(place):
     rig, (_, B2, C2, D2, P2) = build_fourbar(place, a, b, c, d, th0)
     sysm = rig.compile()
     q = np.radians(np.arange(361.0))
-    res = sysm.sweep({"A": q})
+    res = openimp.sweep(sysm, {"A": q})
     assert res.complete, res.message
     assert res.nsteps == 361
     th2 = th0 + q
@@ -367,7 +368,7 @@ def test_slider_crank_closed_form(place):
     rig.m.add_point("P", "ROD", place.p(*P2))
     sysm = rig.compile()
     q = np.radians(np.arange(361.0))
-    res = sysm.sweep({"A": q})
+    res = openimp.sweep(sysm, {"A": q})
     assert res.complete, res.message
     th = th0 + q
     x = xc(th)
@@ -450,7 +451,7 @@ def test_hooke_coupling_denavit_hartenberg(alpha_deg):
     sysm = rig.compile()
     np.testing.assert_allclose(sysm.modeling_q, wrap(ths), atol=1e-12)
     th1 = th1_0 + np.radians(np.arange(0.0, 361.0, 2.0))
-    res = sysm.sweep({"J1": th1})
+    res = openimp.sweep(sysm, {"J1": th1})
     assert res.complete, res.message
     w2, w3, w4 = hooke_closed_form(th1, al)
     for name, want in (("J2", w2), ("J3", w3), ("J4", w4)):
@@ -534,7 +535,7 @@ def test_cardan_book_example_51():
     pa0, pb0, pc0 = cardan_closed_form(psi0, beta)
     np.testing.assert_allclose(sysm.modeling_q, wrap([pa0, pb0, pc0, psi0]), atol=1e-12)
     psi = psi0 + np.radians(np.arange(0.0, 361.0, 3.0))
-    res = sysm.sweep({"D": psi})
+    res = openimp.sweep(sysm, {"D": psi})
     assert res.complete, res.message
     pa, pb, pc = cardan_closed_form(psi, beta)
     for name, want in (("A", pa), ("B", pb), ("C", pc), ("D", psi)):
@@ -612,7 +613,7 @@ def test_rssr_output_angle_and_passive_freedom():
     assert sysm.nq == 10
     assert abs(sysm.modeling_q[sysm.var_index("D")] - phi0) < 1e-12
     q = np.radians(np.arange(0.0, 361.0, 2.0))
-    res = sysm.sweep({"A": q})
+    res = openimp.sweep(sysm, {"A": q})
     assert res.complete, res.message
     phi, B, C = rssr_output(g, th0 + q, +1)
     assert np.max(np.abs(wrap(res.variable("D") - phi))) < 1e-9
@@ -668,7 +669,7 @@ def test_bennett_mobility_and_input_output():
     nbodies, njoints = len(sysm.bodies), len(sysm.joints)
     assert 6 * (nbodies - 1) - 5 * njoints == -2
     th1 = th1_0 + np.radians(np.arange(0.0, 361.0, 3.0))
-    res = sysm.sweep({"J1": th1})
+    res = openimp.sweep(sysm, {"J1": th1})
     assert res.complete, res.message
     w2, w3, w4 = bennett_relation(th1, alpha, beta)
     for k in range(0, len(th1), 15):  # the reference closes
@@ -712,11 +713,11 @@ def test_fivebar_mobility_two_drivers():
     rig, g = build_fivebar()
     sysm = rig.compile()
     with pytest.raises(InputError, match="mobility"):
-        sysm.sweep({"A": np.radians(np.arange(0.0, 10.0))})
+        openimp.sweep(sysm, {"A": np.radians(np.arange(0.0, 10.0))})
     n = 31
     qa = np.radians(np.linspace(0.0, 30.0, n))
     qe = np.radians(np.linspace(0.0, 20.0, n))
-    res = sysm.sweep({"A": qa, "E": qe})
+    res = openimp.sweep(sysm, {"A": qa, "E": qe})
     assert res.complete, res.message
     assert np.all(res.mobility == 2)
     l1, l2, l3, l4 = g["l"]
@@ -737,7 +738,7 @@ def test_fivebar_hold_free_keeps_free_coordinate():
     rig, _ = build_fivebar()
     sysm = rig.compile()
     qa = np.radians(np.linspace(0.0, 20.0, 11))
-    res = sysm.sweep({"A": qa}, hold_free=True)
+    res = openimp.sweep(sysm, {"A": qa}, hold_free=True)
     assert res.complete, res.message
     assert np.all(res.mobility == 2)
     assert_loops_close(rig, res)
@@ -760,7 +761,7 @@ def test_overspecified_driver_named():
     sysm = rig.compile()
     q = np.radians(np.arange(5.0))
     with pytest.raises(InputError) as ei:
-        sysm.sweep({"A": q, "D": q})
+        openimp.sweep(sysm, {"A": q, "D": q})
     msg = str(ei.value)
     assert "D.theta" in msg or "A.theta" in msg, msg
 
@@ -805,7 +806,7 @@ def test_rocker_driven_toward_toggle():
     approach = phi_ext + np.logspace(-1, -9, 17)
     mid = np.linspace(phi0, approach[0], 8)[:-1]
     vals = np.concatenate([mid, approach, [phi_ext - 1e-3]])
-    res = sysm.sweep({"D": vals})
+    res = openimp.sweep(sysm, {"D": vals})
     assert not res.complete
     assert res.message
     assert res.nsteps == len(vals) - 1
@@ -845,7 +846,7 @@ def test_parallelogram_change_point():
     rig.pin("D", "BASE", "ROCKER", [*D2, 0], z, x)
     sysm = rig.compile()
     q = np.radians(np.arange(0.0, 161.0))  # crank 40 .. 200 deg
-    res = sysm.sweep({"A": q})
+    res = openimp.sweep(sysm, {"A": q})
     k = 140  # crank at 180 deg
     assert res.nsteps > k, res.message
     assert res.mobility[k] == 2
@@ -866,7 +867,7 @@ def test_quality_minimal_at_change_point():
     rig.pin("B", "CRANK", "COUPLER", [*B2, 0], z, x)
     rig.pin("C", "COUPLER", "ROCKER", [B2[0] + b, B2[1], 0], z, x)
     rig.pin("D", "BASE", "ROCKER", [b, 0, 0], z, x)
-    res = rig.compile().sweep({"A": np.radians(np.arange(130.0, 151.0))})
+    res = openimp.sweep(rig.compile(), {"A": np.radians(np.arange(130.0, 151.0))})
     k = 10
     assert res.mobility[k] == 2
     assert res.quality[k] <= min(res.quality[k - 1], res.quality[k + 1])
@@ -881,7 +882,7 @@ def test_result_table_and_accessors():
     """to_table() columns equal the accessors; iterations are positive."""
     rig, _ = build_fourbar(PLANAR, 1.0, 3.0, 2.5, 3.2, 40 * DEG)
     sysm = rig.compile()
-    res = sysm.sweep({"A": np.radians(np.arange(0.0, 30.0, 5.0))})
+    res = openimp.sweep(sysm, {"A": np.radians(np.arange(0.0, 30.0, 5.0))})
     t = res.to_table()
     assert len(t["step"]) == res.nsteps == 6
     np.testing.assert_array_equal(t["A.theta"], res.variable("A"))
@@ -899,13 +900,13 @@ def test_structure_without_drivers():
     m.add_joint("revolute", "J2", "A1", "A2", origin=(1, 1, 0))
     m.add_joint("revolute", "J3", "A2", "BASE", origin=(2, 0, 0))
     m.add_point("P", "A1", (0.5, 0.5, 0))
-    s = m.compile()
-    res = s.sweep({}, steps=3)
+    s = openimp.compile(m)
+    res = openimp.sweep(s, {}, steps=3)
     assert res.complete and res.nsteps == 3
     assert np.all(res.mobility == 0)
     np.testing.assert_allclose(res.point("P"), [[0.5, 0.5, 0.0]] * 3, atol=1e-14)
     with pytest.raises(InputError, match="steps"):
-        s.sweep({})
+        openimp.sweep(s, {})
 
 
 def _batch_fourbar(b: float, c: float) -> Model:
@@ -933,31 +934,32 @@ def test_sweep_batch_equals_single_sweeps():
     from openimp.kinematics import sweep_batch
 
     dims = [(3.0, 2.5), (3.1, 2.6), (2.9, 2.45)]
-    systems = [_batch_fourbar(b, c).compile() for b, c in dims]
+    systems = [openimp.compile(_batch_fourbar(b, c)) for b, c in dims]
     drv = np.radians(np.arange(1.0, 361.0))
     per_variant = np.stack([drv, -drv, 0.5 * drv])
     batch = sweep_batch(systems, {"A": per_variant})
     assert len(batch) == 3 and np.all(batch.solved == 360)
     for v, s in enumerate(systems):
-        single = s.sweep({"A": per_variant[v]})
+        single = openimp.sweep(s, {"A": per_variant[v]})
         np.testing.assert_allclose(batch.q[v], single.q, rtol=0, atol=1e-12)
         np.testing.assert_allclose(batch[v].point("P"), single.point("P"), rtol=0, atol=1e-12)
     other = Model("other")
     other.add_joint("revolute", "A", "BASE", "CRANK", origin=(0, 0, 0))
     with pytest.raises(InputError, match="topology"):
-        sweep_batch([systems[0], other.compile()], {"A": drv})
+        sweep_batch([systems[0], openimp.compile(other)], {"A": drv})
     # same joints and bodies, the point on another body: the packed int arrays differ
     moved = _batch_fourbar(3.0, 2.5)
     moved.points.clear()
     moved.add_point("P", "ROCKER", (2.0, 1.0, 0.0))
     with pytest.raises(InputError, match="variant 1"):
-        sweep_batch([systems[0], moved.compile()], {"A": drv})
+        sweep_batch([systems[0], openimp.compile(moved)], {"A": drv})
 
 
 def test_replay_applies_the_inverse_of_the_pivoted_block():
-    """The row operations kept by gauss_jordan, replayed on a new right-hand side,
+    """The row operations kept by the elimination, replayed on a new right-hand side,
     give J11^-1 e in the pivot rows and e - J21 J11^-1 e elsewhere (numpy solve, 1e-12)."""
-    from openimp.kinematics import gauss_jordan, replay
+    from openimp.kinematics.elimination import eliminate, replay
+    from openimp.system import DATA_FIELDS, KWork, allocate, views
 
     rng = np.random.default_rng(3)
     m, n = 6, 4
@@ -965,13 +967,13 @@ def test_replay_applies_the_inverse_of_the_pivoted_block():
     E = rng.normal(size=m)
     sgc = np.zeros(n, np.bool_)
     sgc[1] = True  # never pivoted: rank 3
-    T = np.zeros((m, n + 1))
-    prow = np.zeros(n, np.int64)
-    pcol = np.zeros(n, np.int64)
-    pinv = np.zeros(n)
-    mult = np.zeros((n, m))
-    used = np.zeros(m + n + 1, np.bool_)
-    rank, det, _ = gauss_jordan(J, E, sgc, 1e-12, T, prow, pcol, pinv, mult, used)
+    DP = allocate(DATA_FIELDS, dict(nb=1, nj=1, nq=n, m=m, nq1=n + 1, mq1=m + n + 1, kk=n,
+                                    nd=0))
+    d = KWork(*views(DATA_FIELDS, DP))
+    d.J[...] = J
+    d.E[...] = E
+    rank, det, _ = eliminate(DP, sgc, 1e-12)
+    T, prow, pcol = d.T, d.prow, d.pcol
     assert rank == 3 and 1 not in pcol[:rank]
     rows, cols = prow[:rank], pcol[:rank]
     J11 = J[np.ix_(rows, cols)]
@@ -982,7 +984,7 @@ def test_replay_applies_the_inverse_of_the_pivoted_block():
     # ... and any other one, through the kept row operations
     e2 = rng.normal(size=m)
     e = e2.copy()
-    replay(prow, pinv, mult, rank, e)
+    replay(DP, rank, e)
     x2 = np.linalg.solve(J11, e2[rows])
     np.testing.assert_allclose(e[rows], x2, atol=1e-12)
     other = np.setdiff1d(np.arange(m), rows)
@@ -1004,8 +1006,8 @@ def test_simplified_newton_steps_keep_the_accuracy_of_full_steps():
     rig.pin("D", "BASE", "ROCKER", g["D0"], g["w2"], g["u2"], ref2=C0 - g["D0"])
     sysm = rig.compile()
     q = np.radians(np.arange(0.0, 721.0, 10.0))
-    fast = sysm.sweep({"A": q})
-    full = sysm.sweep({"A": q}, rates={"A": 1.0})
+    fast = openimp.sweep(sysm, {"A": q})
+    full = openimp.sweep(sysm, {"A": q}, rates={"A": 1.0})
     assert fast.complete and full.complete
     d = sysm.var_index("D")
     np.testing.assert_allclose(wrap(fast.q[:, d] - full.q[:, d]), 0.0, atol=1e-10)

@@ -13,6 +13,7 @@ import math
 import numpy as np
 import pytest
 
+import openimp
 from openimp import InputError, Model
 
 
@@ -48,7 +49,7 @@ def fourbar(ground: str = "BASE") -> Model:
 
 @pytest.fixture(scope="module")
 def fb_system():
-    return fourbar().compile()
+    return openimp.compile(fourbar())
 
 
 # =============================================================================
@@ -84,7 +85,7 @@ def test_modeling_variables_from_frames():
     m.add_joint("prismatic", "P", "L1", "L2", origin=(0, 1, 0), axis=(0, 1, 0),
                 ref=(1, 0, 0), origin2=(0, 1.7, 0))
     m.add_joint("open", "O", "L2", "BASE", origin=(0, 1.7, 0))
-    sysm = m.compile()
+    sysm = openimp.compile(m)
     assert sysm.modeling_q[sysm.var_index("R")] == pytest.approx(math.radians(30), abs=1e-14)
     assert sysm.modeling_q[sysm.var_index("P")] == pytest.approx(0.7, abs=1e-14)
 
@@ -108,7 +109,7 @@ def test_length_scale_is_bounding_box_diagonal():
     m.add_joint("revolute", "A", "BASE", "L1", origin=(0, 0, 0))
     m.add_joint("open", "O", "L1", "BASE", origin=(3, 4, 0))
     m.add_point("P", "L1", (0, 0, 12))
-    assert m.compile().length_scale == pytest.approx(13.0, rel=1e-15)
+    assert openimp.compile(m).length_scale == pytest.approx(13.0, rel=1e-15)
 
 
 # =============================================================================
@@ -164,7 +165,7 @@ def test_joint_of_body_with_itself():
 def test_missing_ground():
     """The ground body is in no joint (Model(ground='FRAME'), joints on BASE)."""
     m = fourbar(ground="FRAME")
-    input_error(m.compile, "FRAME")
+    input_error(lambda: openimp.compile(m), "FRAME")
 
 
 def test_point_on_unknown_body():
@@ -185,7 +186,7 @@ def test_revolute_nonconforming_frames(kw):
     m = fourbar()
     m.add_joint("revolute", "E7", "ROCKER", "X", origin=(0, 0, 0), **kw)
     m.add_joint("revolute", "E8", "X", "BASE", origin=(0, 0, 0))
-    msg = input_error(m.compile, "E7")
+    msg = input_error(lambda: openimp.compile(m), "E7")
     assert "E8" not in msg
 
 
@@ -197,63 +198,63 @@ def test_revolute_nonconforming_full_frames():
     F2[1:3, 1:3] = [[math.cos(t), -math.sin(t)], [math.sin(t), math.cos(t)]]
     m = Model()
     m.add_joint("revolute", "Q1", "BASE", "L1", frame1=F1, frame2=F2)
-    input_error(m.compile, "Q1")
+    input_error(lambda: openimp.compile(m), "Q1")
 
 
 def test_bodies_not_connected_to_ground():
     m = fourbar()
     m.add_joint("revolute", "X", "L5", "L6", origin=(0, 0, 0))
-    input_error(m.compile, "L5", "L6")
+    input_error(lambda: openimp.compile(m), "L5", "L6")
 
 
 def test_driver_with_wrong_length(fb_system):
-    input_error(lambda: fb_system.sweep({"A": [0.0, 0.1, 0.2], "B": [0.0, 0.1]}), "B")
+    input_error(lambda: openimp.sweep(fb_system, {"A": [0.0, 0.1, 0.2], "B": [0.0, 0.1]}), "B")
 
 
 @pytest.mark.parametrize("vals", [[], [0.0, float("nan")], [[0.0, 0.1]], [0.0, float("inf")]],
                          ids=["empty", "nan", "2d", "inf"])
 def test_driver_with_bad_values(fb_system, vals):
-    input_error(lambda: fb_system.sweep({"A": vals}), "A")
+    input_error(lambda: openimp.sweep(fb_system, {"A": vals}), "A")
 
 
 def test_driver_with_non_numeric_values(fb_system):
-    input_error(lambda: fb_system.sweep({"A": ["a", "b"]}), "A")
+    input_error(lambda: openimp.sweep(fb_system, {"A": ["a", "b"]}), "A")
 
 
 @pytest.mark.parametrize("key,name", [("Z", "Z"), ("A.phi", "phi"), (("A", 3), "3"), (7, "7")],
                          ids=["joint", "variable", "number", "int"])
 def test_unknown_driver_joint(fb_system, key, name):
-    input_error(lambda: fb_system.sweep({key: [0.0, 0.1]}), name)
+    input_error(lambda: openimp.sweep(fb_system, {key: [0.0, 0.1]}), name)
 
 
 def test_driver_given_twice(fb_system):
-    input_error(lambda: fb_system.sweep({"A": [0.0, 0.1], "A.theta": [0.0, 0.1]}), "A")
+    input_error(lambda: openimp.sweep(fb_system, {"A": [0.0, 0.1], "A.theta": [0.0, 0.1]}), "A")
 
 
 def test_no_driver(fb_system):
-    input_error(lambda: fb_system.sweep({}))
+    input_error(lambda: openimp.sweep(fb_system, {}))
 
 
 def test_multi_variable_joint_needs_variable_name():
     m = Model()
     m.add_joint("cylinder", "CY", "BASE", "L1", origin=(0, 0, 0))
-    s = m.compile()
-    input_error(lambda: s.sweep({"CY": [0.0, 0.1]}), "CY", "theta")
+    s = openimp.compile(m)
+    input_error(lambda: openimp.sweep(s, {"CY": [0.0, 0.1]}), "CY", "theta")
 
 
 def test_euler_rodrigues_parameter_cannot_be_driven():
     m = Model()
     m.add_joint("sphere", "S", "BASE", "L1", origin=(0, 0, 0))
-    s = m.compile()
-    input_error(lambda: s.sweep({"S.e1": [0.0, 0.1]}), "S.e1")
+    s = openimp.compile(m)
+    input_error(lambda: openimp.sweep(s, {"S.e1": [0.0, 0.1]}), "S.e1")
 
 
 def test_start_posture_of_wrong_length(fb_system):
-    input_error(lambda: fb_system.sweep({"A": [0.0, 0.1]}, start=[0.0, 0.0]), "start")
+    input_error(lambda: openimp.sweep(fb_system, {"A": [0.0, 0.1]}, start=[0.0, 0.0]), "start")
 
 
 def test_unknown_point_and_body_in_results(fb_system):
-    res = fb_system.sweep({"A": [0.0, 0.1]})
+    res = openimp.sweep(fb_system, {"A": [0.0, 0.1]})
     input_error(lambda: res.point("Q"), "Q")
     input_error(lambda: res.posture("NOBODY"), "NOBODY")
     input_error(lambda: res.joint("NOJOINT"), "NOJOINT")
@@ -310,18 +311,27 @@ def test_messages_print_plain_numbers():
 def test_unknown_body_frame_joint_and_empty_model():
     input_error(lambda: Model().set_body_frame("QQ", np.eye(4)), "QQ")
     input_error(lambda: Model().delete_joint("QQ"), "QQ")
-    input_error(lambda: Model("empty").compile(), "empty")
+    input_error(lambda: openimp.compile(Model("empty")), "empty")
     m = fourbar()
     bad = np.eye(4)
     bad[0, 0] = 2.0
     input_error(lambda: m.set_body_frame("CRANK", bad), "CRANK")
 
 
-def test_packed_kernel_arrays_are_the_fields():
-    """pack/unpack: the views a kernel rebuilds from KP equal every KData field
-    (shape and values), for an RSSR with a ball joint (ER rows), points and a
-    loop; the Python-side K shares the packed storage."""
-    from openimp.system import KData, unpack
+def test_packed_model_and_data_are_their_field_tables():
+    """The views a kernel rebuilds from the packed buffers (model_views, data_views, run
+    compiled) equal the field tables' arrays (name, order, shape, dtype, values) for an
+    RSSR with ball joints (ER rows), points and a loop; the Python-side K shares the
+    packed storage, and the model's buffers are read-only."""
+    from openimp._jit import njit
+    from openimp.system import (
+        DATA_FIELDS,
+        MODEL_FIELDS,
+        data_views,
+        make_data,
+        model_views,
+        views,
+    )
 
     m = Model("rssr")
     m.add_joint("revolute", "A", "BASE", "CRANK", origin=(0, 0, 0), axis=(0, 0, 1))
@@ -330,11 +340,21 @@ def test_packed_kernel_arrays_are_the_fields():
     m.add_joint("revolute", "D", "ROCKER", "BASE", origin=(0, 2, 1), axis=(1, 0, 0))
     m.add_point("P", "COUPLER", (1.2, 1, 0.5))
     m.add_point("Q", "ROCKER", (1.5, 2, 1))
-    s = m.compile()
-    K = unpack(s.KP)
-    assert K._fields == KData._fields
-    for name, a, b in zip(KData._fields, K, s.K, strict=True):
-        assert a.shape == b.shape and a.dtype == b.dtype, name
-        assert np.array_equal(a, b), name
+    s = openimp.compile(m)
+    data = make_data(s, nd=2)
+    data.v.T[...] = np.arange(data.v.T.size).reshape(data.v.T.shape)
+    data.v.pcol[...] = 7
+    data.v.used[::2] = True
+    for table, P, unpack in ((MODEL_FIELDS, s.KP, model_views),
+                             (DATA_FIELDS, data.DP, data_views)):
+        ref = views(table, P)
+        got = njit(lambda P, f=unpack: f(P))(P)
+        assert got._fields == tuple(f.name for f in table)
+        for f, a, b in zip(table, got, ref, strict=True):
+            assert a.shape == b.shape and a.dtype == b.dtype, f.name
+            assert a.ndim == len(f.shape), f.name
+            assert np.array_equal(a, b), f.name
     assert s.K.er.size == 2 and s.K.L.shape == (1, 4) and s.K.ptlocal.shape == (2, 4)
-    assert np.shares_memory(s.K.S1, s.KP[3]) and np.shares_memory(s.K.L, s.KP[1])
+    assert data.v.G.shape == (s.nq, 2) and data.v.T.shape == (s.nrows, s.nq + 1)
+    assert np.shares_memory(s.K.S1, s.KP[1]) and np.shares_memory(s.K.L, s.KP[0])
+    assert all(not a.flags.writeable for a in s.KP)

@@ -88,12 +88,12 @@ def fivebar() -> Model:
 
 @pytest.fixture(scope="module")
 def fb():
-    return fourbar().compile()
+    return openimp.compile(fourbar())
 
 
 @pytest.fixture(scope="module")
 def five():
-    return fivebar().compile()
+    return openimp.compile(fivebar())
 
 
 # =============================================================================
@@ -196,9 +196,9 @@ def _same_result(r1, r2) -> None:
 def test_sweep_motion_equals_arrays_one_driver(fb):
     times = np.linspace(0.0, 1.0, 181)
     mo = Harmonic(2.0, 2 * math.pi, 0.0, 0.0)
-    r1 = fb.sweep(motion={"A": mo}, times=times)
+    r1 = openimp.sweep(fb, motion={"A": mo}, times=times)
     p, v, a = mo(times)
-    r2 = fb.sweep({"A": p}, {"A": v}, {"A": a})
+    r2 = openimp.sweep(fb, {"A": p}, {"A": v}, {"A": a})
     assert r1.complete and r2.complete
     _same_result(r1, r2)
     np.testing.assert_array_equal(r1.time, times)
@@ -220,15 +220,16 @@ def test_sweep_motion_equals_arrays_two_drivers_mixed_kinds(five):
     times = np.linspace(0.0, 1.0, 121)
     mA = Polynomial([0.0, 4.0, -1.0, 0.5])
     mE = Tabulated(np.linspace(0.0, 1.0, 11), 0.4 * np.sin(np.linspace(0.0, 1.0, 11) * 5))
-    r1 = five.sweep(motion={"A": mA, "E": mE}, times=times)
+    r1 = openimp.sweep(five, motion={"A": mA, "E": mE}, times=times)
     pA, vA, aA = mA(times)
     pE, vE, aE = mE(times)
-    r2 = five.sweep({"A": pA, "E": pE}, {"A": vA, "E": vE}, {"A": aA, "E": aE})
+    r2 = openimp.sweep(five, {"A": pA, "E": pE}, {"A": vA, "E": vE}, {"A": aA, "E": aE})
     assert r1.complete and r2.complete
     _same_result(r1, r2)
-    r3 = five.sweep(motion={"A": mA, "E": lambda t: mE(t)}, times=times)
+    r3 = openimp.sweep(five, motion={"A": mA, "E": lambda t: mE(t)}, times=times)
     _same_result(r1, r3)
-    r4 = five.sweep(motion={"A": mA, "E.theta": FromCallable(lambda t: mE(t))}, times=times)
+    r4 = openimp.sweep(five, motion={"A": mA, "E.theta": FromCallable(lambda t: mE(t))},
+                       times=times)
     _same_result(r1, r4)
 
 
@@ -236,7 +237,7 @@ def test_motion_sweep_rates_match_differences(fb):
     """The rates of a motion sweep agree with differences of its positions in
     time (fourth-order central, 1e-6 relative)."""
     times = np.linspace(0.0, 1.0, 2001)
-    res = fb.sweep(motion={"A": Polynomial([0.0, 1.0, 5.0, -2.0])}, times=times)
+    res = openimp.sweep(fb, motion={"A": Polynomial([0.0, 1.0, 5.0, -2.0])}, times=times)
     assert res.complete
     dt = times[1] - times[0]
     v, a = fd4(res.q, dt)
@@ -267,14 +268,14 @@ def test_data_position_per_step_rates(fb):
     pos = _data_position(-90.0, 15.0, 24)
     n = pos.size
     assert n == 25
-    unit = fb.sweep({"A": pos}, {"A": 1.0}, {"A": 0.0})
+    unit = openimp.sweep(fb, {"A": pos}, {"A": 1.0}, {"A": 0.0})
     assert unit.complete
     G, H = unit.qd, unit.qdd
     np.testing.assert_array_equal(G[:, 0], 1.0)
     rng = np.random.default_rng(7)
     psid = rng.uniform(-30.0, 30.0, n)
     psidd = rng.uniform(-200.0, 200.0, n)
-    res = fb.sweep({"A": pos}, {"A": psid}, {"A": psidd})
+    res = openimp.sweep(fb, {"A": pos}, {"A": psid}, {"A": psidd})
     np.testing.assert_array_equal(res.q, unit.q)
     assert relerr(res.qd, G * psid[:, None]) < 1e-12
     assert relerr(res.qdd, G * psidd[:, None] + H * (psid**2)[:, None]) < 1e-12
@@ -286,14 +287,14 @@ def test_data_position_per_step_rates(fb):
                   wG * psidd[:, None] + aH * (psid**2)[:, None]) < 1e-12
     # the order of the steps does not matter for the rates of a step
     # (the postures are reached along another path: equal to the solver's tolerance)
-    rev = fb.sweep({"A": pos[::-1]}, {"A": psid[::-1]}, {"A": psidd[::-1]})
+    rev = openimp.sweep(fb, {"A": pos[::-1]}, {"A": psid[::-1]}, {"A": psidd[::-1]})
     assert relerr(rev.qd[::-1], res.qd) < 1e-10
     assert relerr(rev.qdd[::-1], res.qdd) < 1e-10
     # one value == that value at every step (as a list, a 1-element array, a scalar)
-    r1 = fb.sweep({"A": pos}, {"A": 2.5}, {"A": -4.0})
+    r1 = openimp.sweep(fb, {"A": pos}, {"A": 2.5}, {"A": -4.0})
     for rate, acc in (([2.5], [-4.0]), (np.array([2.5]), np.array([-4.0])),
                       (np.full(n, 2.5), np.full(n, -4.0))):
-        r2 = fb.sweep({"A": pos}, {"A": rate}, {"A": acc})
+        r2 = openimp.sweep(fb, {"A": pos}, {"A": rate}, {"A": acc})
         np.testing.assert_array_equal(r1.qd, r2.qd)
         np.testing.assert_array_equal(r1.qdd, r2.qdd)
 
@@ -303,14 +304,14 @@ def test_rates_or_accels_alone_and_none(fb):
     velocities are 0 (qdd = G psidd); neither: no rates, and asking for them is
     an InputError saying how to get them."""
     pos = _data_position(0.0, 10.0, 12)
-    unit = fb.sweep({"A": pos}, {"A": 1.0}, {"A": 0.0})
-    r = fb.sweep({"A": pos}, rates={"A": 3.0})
+    unit = openimp.sweep(fb, {"A": pos}, {"A": 1.0}, {"A": 0.0})
+    r = openimp.sweep(fb, {"A": pos}, rates={"A": 3.0})
     assert relerr(r.qd, 3.0 * unit.qd) < 1e-12
     assert relerr(r.qdd, 9.0 * unit.qdd) < 1e-12
-    r = fb.sweep({"A": pos}, accels={"A": 5.0})
+    r = openimp.sweep(fb, {"A": pos}, accels={"A": 5.0})
     assert np.all(r.qd == 0.0)
     assert relerr(r.qdd, 5.0 * unit.qd) < 1e-12
-    r = fb.sweep({"A": pos})
+    r = openimp.sweep(fb, {"A": pos})
     assert not r.has_rates
     with pytest.raises(InputError, match="velocit"):
         _ = r.qd
@@ -329,7 +330,7 @@ def test_two_driver_rates_superpose(five):
 
     def run(x, y, sx=1.0, sy=1.0):
         r = {k: sx * x[k] + sy * y[k] for k in x}
-        return five.sweep(pos, r, {"A": 0.0, "E": 0.0})
+        return openimp.sweep(five, pos, r, {"A": 0.0, "E": 0.0})
 
     ra, rb = run(a, b, 1, 0), run(a, b, 0, 1)
     rp, rm = run(a, b, 1, 1), run(a, b, 1, -1)
@@ -344,18 +345,18 @@ def test_two_driver_rates_superpose(five):
 
 def test_bad_lengths(five, fb):
     with pytest.raises(InputError, match="same number"):
-        five.sweep({"A": [0.0, 0.1, 0.2], "E": [0.0, 0.1]})
+        openimp.sweep(five, {"A": [0.0, 0.1, 0.2], "E": [0.0, 0.1]})
     pos = [0.0, 0.1, 0.2]
     with pytest.raises(InputError, match="rate"):
-        fb.sweep({"A": pos}, {"A": [1.0, 2.0]})
+        openimp.sweep(fb, {"A": pos}, {"A": [1.0, 2.0]})
     with pytest.raises(InputError, match="acceleration"):
-        fb.sweep({"A": pos}, {"A": 1.0}, {"A": [1.0, 2.0, 3.0, 4.0]})
+        openimp.sweep(fb, {"A": pos}, {"A": 1.0}, {"A": [1.0, 2.0, 3.0, 4.0]})
     with pytest.raises(InputError):
-        fb.sweep({"A": pos}, {"A": np.ones((3, 1))})
+        openimp.sweep(fb, {"A": pos}, {"A": np.ones((3, 1))})
     with pytest.raises(InputError):
-        fb.sweep({"A": []})
+        openimp.sweep(fb, {"A": []})
     with pytest.raises(InputError):
-        five.sweep(motion={"A": ConstantRate(0, 1), "E": ConstantRate(0, 1)},
+        openimp.sweep(five, motion={"A": ConstantRate(0, 1), "E": ConstantRate(0, 1)},
                    times=np.zeros((2, 3)))
 
 
@@ -364,17 +365,18 @@ def test_bad_lengths(five, fb):
 def test_non_finite_values(fb, bad):
     pos = np.array([0.0, 0.1, 0.2])
     with pytest.raises(InputError):
-        fb.sweep({"A": np.r_[pos[:2], bad]})
+        openimp.sweep(fb, {"A": np.r_[pos[:2], bad]})
     with pytest.raises(InputError):
-        fb.sweep({"A": pos}, {"A": [1.0, bad, 1.0]})
+        openimp.sweep(fb, {"A": pos}, {"A": [1.0, bad, 1.0]})
     with pytest.raises(InputError):
-        fb.sweep({"A": pos}, {"A": bad})
+        openimp.sweep(fb, {"A": pos}, {"A": bad})
     with pytest.raises(InputError):
-        fb.sweep({"A": pos}, {"A": 1.0}, {"A": [0.0, 0.0, bad]})
+        openimp.sweep(fb, {"A": pos}, {"A": 1.0}, {"A": [0.0, 0.0, bad]})
     with pytest.raises(InputError):
-        fb.sweep(motion={"A": Harmonic(1.0, 1.0)}, times=[0.0, bad])
+        openimp.sweep(fb, motion={"A": Harmonic(1.0, 1.0)}, times=[0.0, bad])
     with pytest.raises(InputError):
-        fb.sweep(motion={"A": FromCallable(lambda t: (t, t * bad, 0 * t))}, times=[0.0, 1.0])
+        openimp.sweep(fb, motion={"A": FromCallable(lambda t: (t, t * bad, 0 * t))},
+                      times=[0.0, 1.0])
 
     class BadRate(Motion):
         def __call__(self, t):
@@ -382,54 +384,54 @@ def test_non_finite_values(fb, bad):
             return t, np.full_like(t, bad), np.zeros_like(t)
 
     with pytest.raises(InputError):
-        fb.sweep(motion={"A": BadRate()}, times=[0.0, 0.5, 1.0])
+        openimp.sweep(fb, motion={"A": BadRate()}, times=[0.0, 0.5, 1.0])
 
 
 def test_rates_for_a_non_driver(fb, five):
     pos = [0.0, 0.1, 0.2]
     with pytest.raises(InputError, match="not one of the drivers"):
-        fb.sweep({"A": pos}, {"B": 1.0})
+        openimp.sweep(fb, {"A": pos}, {"B": 1.0})
     with pytest.raises(InputError, match="not one of the drivers"):
-        fb.sweep({"A": pos}, {"A": 1.0}, {"C": 1.0})
+        openimp.sweep(fb, {"A": pos}, {"A": 1.0}, {"C": 1.0})
     with pytest.raises(InputError, match="not one of the drivers"):
-        five.sweep({"A": pos, "E": pos}, {"A": 1.0, "E": 1.0, "D.theta": 0.0})
+        openimp.sweep(five, {"A": pos, "E": pos}, {"A": 1.0, "E": 1.0, "D.theta": 0.0})
     with pytest.raises(InputError, match="unknown joint"):
-        fb.sweep({"A": pos}, {"Z": 1.0})
+        openimp.sweep(fb, {"A": pos}, {"Z": 1.0})
     with pytest.raises(InputError):
-        fb.sweep({"A": pos}, {"A": "fast"})
+        openimp.sweep(fb, {"A": pos}, {"A": "fast"})
 
 
 def test_rate_keys_name_the_same_variable_as_the_driver(fb):
     """Rates may name the driver as 'A', 'A.theta' or ('A', 0)."""
     pos = [0.0, 0.1, 0.2]
-    ref = fb.sweep({"A": pos}, {"A": 2.0}, {"A": 1.0})
+    ref = openimp.sweep(fb, {"A": pos}, {"A": 2.0}, {"A": 1.0})
     for kr, ka in (("A.theta", ("A", 0)), (("A", "theta"), "A")):
-        r = fb.sweep({"A": pos}, {kr: 2.0}, {ka: 1.0})
+        r = openimp.sweep(fb, {"A": pos}, {kr: 2.0}, {ka: 1.0})
         np.testing.assert_array_equal(r.qd, ref.qd)
         np.testing.assert_array_equal(r.qdd, ref.qdd)
 
 
 def test_rate_given_twice_is_an_error(fb):
     with pytest.raises(InputError):
-        fb.sweep({"A": [0.0, 0.1]}, {"A": 1.0, "A.theta": 2.0})
+        openimp.sweep(fb, {"A": [0.0, 0.1]}, {"A": 1.0, "A.theta": 2.0})
 
 
 def test_bad_motion_requests(fb):
     times = np.linspace(0, 1, 5)
     with pytest.raises(InputError, match="not both"):
-        fb.sweep({"A": [0.0]}, motion={"A": ConstantRate(0, 1)}, times=times)
+        openimp.sweep(fb, {"A": [0.0]}, motion={"A": ConstantRate(0, 1)}, times=times)
     with pytest.raises(InputError, match="times"):
-        fb.sweep(motion={"A": ConstantRate(0, 1)})
+        openimp.sweep(fb, motion={"A": ConstantRate(0, 1)})
     with pytest.raises(InputError, match="motion"):
-        fb.sweep(motion={"A": 3.0}, times=times)
+        openimp.sweep(fb, motion={"A": 3.0}, times=times)
     with pytest.raises(InputError):
-        fb.sweep(motion={"A": FromCallable(lambda t: "abc")}, times=times)
+        openimp.sweep(fb, motion={"A": FromCallable(lambda t: "abc")}, times=times)
     with pytest.raises(InputError):
-        fb.sweep(motion={"A": FromCallable(lambda t: (t, t, t[:2]))}, times=times)
+        openimp.sweep(fb, motion={"A": FromCallable(lambda t: (t, t, t[:2]))}, times=times)
     with pytest.raises(InputError):
-        fb.sweep(motion={"B": ConstantRate(0, 1), "A": ConstantRate(0, 1)}, times=times)
+        openimp.sweep(fb, motion={"B": ConstantRate(0, 1), "A": ConstantRate(0, 1)}, times=times)
     with pytest.raises(InputError):
-        fb.sweep()
+        openimp.sweep(fb)
     with pytest.raises(InputError):
         Motion()(times)
 
@@ -442,7 +444,7 @@ def test_motion_function_with_wrong_number_of_values(fb, arity):
     with pytest.raises(InputError, match="position, velocity, acceleration"):
         mo(times)
     with pytest.raises(InputError):
-        fb.sweep(motion={"A": mo}, times=times)
+        openimp.sweep(fb, motion={"A": mo}, times=times)
 
 
 def test_bad_motion_definitions():

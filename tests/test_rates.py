@@ -30,6 +30,7 @@ from collections import Counter
 import numpy as np
 import pytest
 
+import openimp
 from openimp import Model
 
 DEG = math.pi / 180.0
@@ -288,10 +289,10 @@ N_FD = 2001  # dt = 5e-4 over one cycle of unit duration
 def test_fd_fourbar_full_revolution():
     """Crank-rocker a=1, b=3, c=2.5, d=3.2, crank turned once with
     q_A = 2 pi t + 0.4 sin(2 pi t), t in [0, 1]."""
-    s = fourbar()[0].compile()
+    s = openimp.compile(fourbar()[0])
     t = np.linspace(0.0, 1.0, N_FD)
     q, qd, qdd = smooth_drive(t, 0.0, 2 * math.pi, 0.4)
-    res = s.sweep({"A": q}, {"A": qd}, {"A": qdd})
+    res = openimp.sweep(s, {"A": q}, {"A": qd}, {"A": qdd})
     assert res.complete, res.message
     np.testing.assert_array_equal(res.variable("A"), q)
     np.testing.assert_array_equal(res.joint_velocity("A")[:, 0], qd)
@@ -305,10 +306,10 @@ def test_fd_fourbar_full_revolution():
 def test_fd_slider_crank_full_revolution():
     """Offset slider-crank (a=1, b=3.5, e=0.4): joint rates including the slide,
     rod and slider bodies, points on both."""
-    s = slider_crank().compile()
+    s = openimp.compile(slider_crank())
     t = np.linspace(0.0, 1.0, N_FD)
     q, qd, qdd = smooth_drive(t, 0.0, 2 * math.pi, 0.4)
-    res = s.sweep({"A": q}, {"A": qd}, {"A": qdd})
+    res = openimp.sweep(s, {"A": q}, {"A": qd}, {"A": qdd})
     assert res.complete, res.message
     check_against_fd(res, t[1] - t[0], points=("P", "S"), bodies=("CRANK", "ROD", "SLIDER"))
     # the slider only translates along x
@@ -330,12 +331,12 @@ def test_fd_rssr_full_revolution():
     held coordinate keeps its value and has zero rates; the Euler-Rodrigues
     rates keep the parameters on the unit sphere: e.e' = 0, e.e'' = -e'.e'.
     """
-    s = rssr().compile()
+    s = openimp.compile(rssr())
     assert s.var_names[0] == "A.theta" and s.var_names[-1] == "D.theta"
     t = np.linspace(0.0, 1.0, N_FD)
     dt = t[1] - t[0]
     q, qd, qdd = smooth_drive(t, 0.0, 2 * math.pi, 0.4)
-    res = s.sweep({"A": q}, {"A": qd}, {"A": qdd})
+    res = openimp.sweep(s, {"A": q}, {"A": qd}, {"A": qdd})
     assert res.complete, res.message
     assert np.all(res.mobility == 2)  # the drive and the passive spin
     fg = {tuple(x) for x in res.fgc}
@@ -357,10 +358,10 @@ def test_fd_hooke_full_revolution():
     """Cardan coupling of example 5.1 (beta = 150 deg, h = 1), input shaft turned
     once with psi = 30 deg + 2 pi t + 0.3 sin(2 pi t)."""
     m, phi, _ = hooke_book()
-    s = m.compile()
+    s = openimp.compile(m)
     t = np.linspace(0.0, 1.0, N_FD)
     q, qd, qdd = smooth_drive(t, phi[3], 2 * math.pi, 0.3)
-    res = s.sweep({"D": q}, {"D": qd}, {"D": qdd})
+    res = openimp.sweep(s, {"D": q}, {"D": qd}, {"D": qdd})
     assert res.complete, res.message
     check_against_fd(res, t[1] - t[0], points=("R", "O1"), bodies=("OUT", "CROSS", "IN"))
     ground_is_still(res)
@@ -391,12 +392,12 @@ def test_fourbar_closed_form_rates(dims):
     a, b, c, d, th0 = dims
     th0 *= DEG
     m, _ = fourbar(a, b, c, d, th0)
-    s = m.compile()
+    s = openimp.compile(m)
     t = np.linspace(0.0, 1.0, 361)
     q, w2, al2 = smooth_drive(t, 0.0, 2 * math.pi, 0.5)
     w2 = w2 * 1.7
     al2 = al2 * 1.7 - 3.0  # decelerating on top of the wobble
-    res = s.sweep({"A": q}, {"A": w2}, {"A": al2})
+    res = openimp.sweep(s, {"A": q}, {"A": w2}, {"A": al2})
     assert res.complete, res.message
     t2 = th0 + q
     Bp = np.stack([a * np.cos(t2), a * np.sin(t2), 0 * t2], axis=1)
@@ -454,10 +455,10 @@ def _mat(rows: str) -> np.ndarray:
 def cardan_30():
     """The digest's numeric point: beta = 150 deg, h = 1, psi = 30 deg (d1 = d2 = 1)."""
     m, _, _ = hooke_book()
-    s = m.compile()
+    s = openimp.compile(m)
     psi = 30 * DEG
-    unit = s.sweep({"D": [psi]}, {"D": 1.0}, {"D": 0.0})  # rates = phi', accels = phi''
-    book = s.sweep({"D": [psi]}, {"D": 2.0}, {"D": 0.5})  # psi' = 2, psi'' = 0.5
+    unit = openimp.sweep(s, {"D": [psi]}, {"D": 1.0}, {"D": 0.0})  # rates = phi', accels = phi''
+    book = openimp.sweep(s, {"D": [psi]}, {"D": 2.0}, {"D": 0.5})  # psi' = 2, psi'' = 0.5
     return s, unit, book
 
 
@@ -558,11 +559,11 @@ def test_cardan_corrected_closed_forms_over_a_turn(beta_deg, h):
     """
     beta = beta_deg * DEG
     m, phi, _ = hooke_book(beta=beta, h=h, d1=2.0, d2=0.7)
-    s = m.compile()
+    s = openimp.compile(m)
     psi = phi[3] + np.linspace(0.0, 2 * math.pi, 145)
     pd = 1.3 + 0.8 * np.sin(3 * psi)
     pdd = -2.1 + 1.5 * np.cos(psi)
-    res = s.sweep({"D": psi}, {"D": pd}, {"D": pdd})
+    res = openimp.sweep(s, {"D": psi}, {"D": pd}, {"D": pdd})
     assert res.complete, res.message
     sb, cb = math.sin(beta), math.cos(beta)
     sp, cp = np.sin(psi), np.cos(psi)
@@ -634,10 +635,10 @@ def _assert_rigid_body(res, body: str, point: str) -> None:
 def test_rigid_body_point_formulas_rssr():
     """RSSR: rocker point P (the rocker turns about the x axis through (0, 3, 0),
     so its origin - the global origin at the modeling posture - moves) and crank point K."""
-    s = rssr().compile()
+    s = openimp.compile(rssr())
     t = np.linspace(0.0, 1.0, 121)
     q, qd, qdd = smooth_drive(t, 0.3, 2 * math.pi, 0.4)
-    res = s.sweep({"A": q}, {"A": 3.0 * qd}, {"A": 9.0 * qdd + 2.0})
+    res = openimp.sweep(s, {"A": q}, {"A": 3.0 * qd}, {"A": 9.0 * qdd + 2.0})
     assert res.complete, res.message
     _assert_rigid_body(res, "ROCKER", "P")
     _assert_rigid_body(res, "CRANK", "K")
@@ -646,14 +647,14 @@ def test_rigid_body_point_formulas_rssr():
 def test_rigid_body_point_formulas_cardan_and_slider_crank():
     """Cardan cross (fully spatial omega and alpha) and the slider-crank rod."""
     m, phi, _ = hooke_book(beta=140 * DEG, h=0.8)
-    res = m.compile().sweep(
+    res = openimp.sweep(openimp.compile(m),
         {"D": phi[3] + np.linspace(0, 2 * math.pi, 91)}, {"D": 2.5}, {"D": -1.5})
     assert res.complete
     _assert_rigid_body(res, "CROSS", "R")
     _assert_rigid_body(res, "OUT", "O1")
-    s = slider_crank().compile()
+    s = openimp.compile(slider_crank())
     q = np.linspace(0, 2 * math.pi, 91)
-    res = s.sweep({"A": q}, {"A": 4.0 + np.sin(q)}, {"A": np.cos(q)})
+    res = openimp.sweep(s, {"A": q}, {"A": 4.0 + np.sin(q)}, {"A": np.cos(q)})
     _assert_rigid_body(res, "ROD", "P")
     _assert_rigid_body(res, "SLIDER", "S")
 
@@ -694,12 +695,12 @@ def test_fivebar_two_drivers_pivot_order_changes():
     current pin positions, in internal units); the rates agree with finite
     differences at every step and are continuous."""
     m = fivebar()
-    s = m.compile()
+    s = openimp.compile(m)
     t = np.linspace(0.0, 1.0, N_FD)
     dt = t[1] - t[0]
     q1, q1d, q1dd = smooth_drive(t, 0.0, 2 * math.pi, 0.3)
     q4, q4d, q4dd = smooth_drive(t, 0.0, 0.0, 0.5)
-    res = s.sweep({"A": q1, "E": q4}, {"A": q1d, "E": q4d}, {"A": q1dd, "E": q4dd})
+    res = openimp.sweep(s, {"A": q1, "E": q4}, {"A": q1d, "E": q4d}, {"A": q1dd, "E": q4dd})
     assert res.complete, res.message
     assert all(not f for f in res.fgc)
     orders = Counter()
@@ -725,14 +726,14 @@ def _rocker_to_extreme(decades: int):
     relative distances 0.05 * 10^-1 ... 10^-decades of the travel."""
     a, b, c, d = 1.0, 3.0, 2.5, 3.2
     m, P = fourbar(a, b, c, d, th0=200 * DEG)
-    s = m.compile()
+    s = openimp.compile(m)
     C, D = P["C"], P["D"]
     phi0 = math.atan2(C[1] - D[1], C[0] - D[0])
     phi_ext = math.acos(((a + b) ** 2 - d * d - c * c) / (2 * d * c))
     target = -(phi_ext - phi0)  # D is ROCKER -> BASE: its variable is minus the rocker's turn
     deltas = np.logspace(-1, -decades, decades) if decades else np.zeros(0)
     vals = np.r_[np.linspace(0.0, 0.95 * target, 20), target * (1 - 0.05 * deltas), target]
-    return s.sweep({"D": vals}, {"D": 1.0}, {"D": 0.0})
+    return openimp.sweep(s, {"D": vals}, {"D": 1.0}, {"D": 0.0})
 
 
 def test_rocker_approaching_extreme_rates_grow_like_inverse_sqrt():
@@ -788,9 +789,9 @@ def test_singular_parallelogram_change_point_is_flagged():
     m.add_joint("revolute", "C", "COUPLER", "ROCKER", origin=C)
     m.add_joint("revolute", "D", "ROCKER", "BASE", origin=D)
     m.add_point("P", "COUPLER", (B + C) / 2 + [0.0, 0.3, 0.0])
-    s = m.compile()
+    s = openimp.compile(m)
     q = np.radians(np.arange(0.0, 161.0))  # crank 40 .. 200 deg
-    res = s.sweep({"A": q}, {"A": 1.0}, {"A": 0.0})
+    res = openimp.sweep(s, {"A": q}, {"A": 1.0}, {"A": 0.0})
     assert res.complete, res.message
     k = 140
     assert np.flatnonzero(res.singular).tolist() == [k]
@@ -815,7 +816,7 @@ def _parallelogram():
     m.add_joint("revolute", "B", "CRANK", "COUPLER", origin=B)
     m.add_joint("revolute", "C", "COUPLER", "ROCKER", origin=B + np.array([b, 0.0, 0.0]))
     m.add_joint("revolute", "D", "ROCKER", "BASE", origin=(b, 0, 0))
-    return m.compile()
+    return openimp.compile(m)
 
 
 @pytest.mark.parametrize(
@@ -829,7 +830,7 @@ def test_singular_flag_does_not_depend_on_sweep_length(crank_deg):
     the driver is at rest there (psi' = 0, psi'' = 1: the joint accelerations
     are not determined by the driver)."""
     s = _parallelogram()
-    res = s.sweep({"A": np.radians(crank_deg)}, {"A": 0.0}, {"A": 1.0})
+    res = openimp.sweep(s, {"A": np.radians(crank_deg)}, {"A": 0.0}, {"A": 1.0})
     assert res.complete, res.message
     assert res.mobility[-1] == 2
     assert res.singular[-1]
@@ -878,13 +879,13 @@ def test_fd_ferguson_gear_train():
                 radius1=2.5, radius2=0.25)
     m.add_point("PP", "PLANET", (2.95, 0.1, 1.5))
     m.add_point("S3", "SUN3", (1.5, -0.7, 2.0))
-    s = m.compile()
+    s = openimp.compile(m)
     assert s.var_names == ("A.theta", "B.theta", "C.phi1", "C.phi2", "C.phi3", "D.theta",
                            "E.phi1", "E.phi2", "E.phi3", "F.theta", "G.phi1", "G.phi2",
                            "G.phi3")
     t = np.linspace(0.0, 1.0, 4001)
     q, qd, qdd = smooth_drive(t, 0.0, 2 * math.pi, 0.3)
-    res = s.sweep({"B": q}, {"B": qd}, {"B": qdd})
+    res = openimp.sweep(s, {"B": q}, {"B": qd}, {"B": qdd})
     assert res.complete, res.message
     assert np.all(res.mobility == 1) and np.all(res.rank == 12)
     ratio = np.array([10, 1, 100 / 101, 0, 0, 1 / 101, 100 / 99, 0, 0, -1 / 99, 1, 0, 0])
@@ -927,10 +928,10 @@ def test_fd_cam_radial_roller_follower():
                 ref=(1, 0, 0))
     m.add_point("F", "FOLLOWER", (0.3, y0 + 0.5, 0.0))
     m.add_point("Q", "CAM", (0.5, 0.7, 0.0))
-    s = m.compile()
+    s = openimp.compile(m)
     t = np.linspace(0.0, 1.0, N_FD)
     q, qd, qdd = smooth_drive(t, 0.0, 2 * math.pi, 0.3)
-    res = s.sweep({"A": q}, {"A": qd}, {"A": qdd})
+    res = openimp.sweep(s, {"A": q}, {"A": qd}, {"A": qdd})
     assert res.complete, res.message
     assert np.all(res.mobility == 1)
     a = math.pi / 2 - q
@@ -961,10 +962,10 @@ def test_fd_sphere_groove_spatial_yoke():
                 ref=(0, 1, 0))
     m.add_point("Y", "YOKE", (0.3, 1.0, -0.2))
     m.add_point("K", "CRANK", (0.2, 0.8, 0.4))
-    s = m.compile()
+    s = openimp.compile(m)
     t = np.linspace(0.0, 1.0, N_FD)
     q, qd, qdd = smooth_drive(t, 0.0, 2 * math.pi, 0.3)
-    res = s.sweep({"A": q}, {"A": qd}, {"A": qdd})
+    res = openimp.sweep(s, {"A": q}, {"A": qd}, {"A": qdd})
     assert res.complete, res.message
     assert np.all(res.mobility == 1)
     th = th0 + q

@@ -6,6 +6,7 @@ import numba
 import numpy as np
 import pytest
 
+import openimp
 from openimp import _warm
 from openimp._jit import JIT_ENABLED
 
@@ -18,9 +19,9 @@ def test_helper_compiles_the_signatures_a_run_uses():
     entries are the ones a run looks up."""
     from test_model import fourbar
 
-    s = fourbar().compile()
+    s = openimp.compile(fourbar())
     a = np.radians(np.arange(0.0, 30.0, 10.0))
-    res = s.sweep({"A": a}, rates={"A": 1.0}, accels={"A": 0.5})
+    res = openimp.sweep(s, {"A": a}, rates={"A": 1.0}, accels={"A": 0.5})
     res.angular_velocity("COUPLER")
     res.posture("COUPLER")
     for kernel, types in _warm.rate_kernel_signatures():
@@ -36,15 +37,15 @@ def test_cache_is_cold_until_the_last_kernel_is_cached(tmp_path, monkeypatch):
     assert _warm.cache_is_cold()
     sub = tmp_path / "openimp_0123"
     sub.mkdir()
-    (sub / "kinematics.tracks-1052.py311.nbi").write_bytes(b"")
+    (sub / "track.track-1052.py311.nbi").write_bytes(b"")
     assert not _warm.cache_is_cold()
 
 
 def test_no_helper_on_a_warm_cache_or_when_disabled(tmp_path, monkeypatch):
     """start() spawns nothing when the cache is warm or OPENIMP_NO_WARMUP=1."""
     monkeypatch.setattr(numba.config, "CACHE_DIR", str(tmp_path))
-    (tmp_path / "kinematics.tracks-1.py311.nbi").write_bytes(b"")
+    (tmp_path / "track.track-1.py311.nbi").write_bytes(b"")
     assert _warm.start() is None
-    (tmp_path / "kinematics.tracks-1.py311.nbi").unlink()
+    (tmp_path / "track.track-1.py311.nbi").unlink()
     monkeypatch.setenv("OPENIMP_NO_WARMUP", "1")
     assert _warm.start() is None

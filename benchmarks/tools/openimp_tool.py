@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+import openimp
 from benchmarks import mechanisms as mx
 from benchmarks.harness import CaseRun, NotAvailable
 
@@ -86,11 +87,11 @@ def _complete(res):
 # ---------------------------------------------------------------- the cases
 def case_fourbar(ctx) -> CaseRun:
     fb = mx.FOURBAR
-    s = fourbar_model(fb).compile()
+    s = openimp.compile(fourbar_model(fb))
     drv = {"A": fb.crank_angles() - fb.theta0}
 
     def run():
-        return _complete(s.sweep(drv))
+        return _complete(openimp.sweep(s, drv))
 
     def outputs(res):
         return {"rocker": _rocker_angle(res, fb.D), "P": res.point("P")[:, :2]}
@@ -114,12 +115,12 @@ def _find(res, names):
 def case_fourbar_rates(ctx) -> CaseRun:
     """Positions, velocities and accelerations: system.sweep(drivers, rates=, accels=)."""
     fb = mx.FOURBAR
-    s = fourbar_model(fb).compile()
+    s = openimp.compile(fourbar_model(fb))
     drv = {"A": fb.crank_angles() - fb.theta0}
     rates = {"A": np.full(mx.NSTEPS, mx.OMEGA)}
     accels = {"A": np.full(mx.NSTEPS, mx.ALPHA)}
     try:
-        probe = s.sweep(drv, rates=rates, accels=accels)
+        probe = openimp.sweep(s, drv, rates=rates, accels=accels)
     except Exception as e:  # the rates API does not exist yet
         raise NotAvailable(f"sweep(rates=, accels=) raised {type(e).__name__}: {e}") from None
     qd = _find(probe, _RATE_NAMES)
@@ -133,7 +134,7 @@ def case_fourbar_rates(ctx) -> CaseRun:
     sign = np.sign(np.polyfit(probe.q[:, iD], np.unwrap(rocker), 1)[0])
 
     def run():
-        return _complete(s.sweep(drv, rates=rates, accels=accels))
+        return _complete(openimp.sweep(s, drv, rates=rates, accels=accels))
 
     def outputs(res):
         qd = np.asarray(_find(res, _RATE_NAMES))
@@ -146,11 +147,11 @@ def case_fourbar_rates(ctx) -> CaseRun:
 
 def case_slider(ctx) -> CaseRun:
     sc = mx.SLIDER
-    s = slider_model(sc).compile()
+    s = openimp.compile(slider_model(sc))
     drv = {"A": sc.crank_angles() - sc.theta0}
 
     def run():
-        return _complete(s.sweep(drv))
+        return _complete(openimp.sweep(s, drv))
 
     def outputs(res):
         return {"slider": res.point("SC")[:, 0], "P": res.point("P")[:, :2]}
@@ -160,16 +161,16 @@ def case_slider(ctx) -> CaseRun:
 
 def case_rssr(ctx) -> CaseRun:
     rs = mx.RSSR_MECH
-    s = rssr_model(rs).compile()
+    s = openimp.compile(rssr_model(rs))
     drv = {"A": rs.crank_angles() - rs.theta0}
     opts: dict = {}
     try:
-        s.sweep({"A": drv["A"][:2]})
+        openimp.sweep(s, {"A": drv["A"][:2]})
     except Exception:  # the coupler's idle spin about B-C: hold it
         opts = {"hold_free": True}
 
     def run():
-        return _complete(s.sweep(drv, **opts))
+        return _complete(openimp.sweep(s, drv, **opts))
 
     def outputs(res):
         C = res.point("RC")
@@ -182,12 +183,12 @@ def case_rssr(ctx) -> CaseRun:
 
 def case_chain(ctx) -> CaseRun:
     ch = mx.CHAIN6R
-    s = chain_model(ch).compile()
+    s = openimp.compile(chain_model(ch))
     q = ch.joint_values()
     drv = {f"J{i + 1}": q[:, i] for i in range(6)}
 
     def run():
-        return _complete(s.sweep(drv))
+        return _complete(openimp.sweep(s, drv))
 
     def outputs(res):
         return {"P": res.point("P")}
@@ -205,7 +206,7 @@ def _sweep_batch(systems, drvs):
 
 def case_batch(ctx) -> CaseRun:
     variants = mx.fourbar_variants(ctx.nvariants)
-    systems = [fourbar_model(fb).compile() for fb in variants]
+    systems = [openimp.compile(fourbar_model(fb)) for fb in variants]
     drvs = [{"A": fb.crank_angles() - fb.theta0} for fb in variants]
     note = "openimp.kinematics.sweep_batch: one compiled call, parallel over variants"
 
@@ -222,12 +223,12 @@ def case_batch(ctx) -> CaseRun:
 def case_million(ctx) -> CaseRun:
     """1e6 stored postures of the four-bar: every joint variable and one point."""
     fb = mx.FOURBAR
-    s = fourbar_model(fb).compile()
+    s = openimp.compile(fourbar_model(fb))
     n = ctx.nmillion
     drv = {"A": np.radians(np.arange(n) * 0.36)}  # 0.36 deg steps: 1000 turns in 1e6 steps
 
     def run():
-        res = _complete(s.sweep(drv))
+        res = _complete(openimp.sweep(s, drv))
         return res.q, res.point("P")
 
     def outputs(out):

@@ -1,19 +1,25 @@
 """openimp: mechanism and multibody analysis by the 4x4 transformation-matrix method.
 
 Build a :class:`Model` (or read an IMP deck with :func:`load`), compile it to a
-:class:`~openimp.system.System` and run analyses on it::
+:class:`~openimp.system.System` and run analyses on it, free functions of the
+compiled system as in Pinocchio and MuJoCo::
 
     import numpy as np, openimp
     m = openimp.Model("four-bar")
     m.add_joint("revolute", "A", "BASE", "CRANK", origin=(0, 0, 0))
     ...
-    res = m.compile().sweep({"A": np.radians(np.arange(361))})
+    system = openimp.compile(m)
+    res = openimp.sweep(system, {"A": np.radians(np.arange(361))})
 """
 
 from typing import Any
 
 from openimp.errors import AnalysisError, InputError, OpenIMPError
+from openimp.kinematics import BatchResult, sweep, sweep_batch
 from openimp.model import Model
+from openimp.results import Trajectory
+from openimp.system import State, System
+from openimp.system import compile_model as compile
 
 __version__ = "0.1.0"
 
@@ -25,4 +31,7 @@ def load(path: str) -> Any:
     return _load(path)
 
 
-__all__ = ["AnalysisError", "InputError", "Model", "OpenIMPError", "__version__", "load"]
+__all__ = [
+    "AnalysisError", "BatchResult", "InputError", "Model", "OpenIMPError", "State", "System",
+    "Trajectory", "__version__", "compile", "load", "sweep", "sweep_batch",
+]

@@ -134,9 +134,12 @@ def njit(*args: Any, **kwargs: Any) -> Any:
 prange = _numba.prange if JIT_ENABLED else range
 
 
-def _rows_py(buf: Any, o: int, n: int) -> Any:
-    """``buf[o:o + n]``: rows o to o + n of an array (plain Python)."""
-    return buf[o:o + n]
+def _view_py(buf: Any, o: int, *shape: int) -> Any:
+    """``buf[o:o + prod(shape)].reshape(shape)``: a C-ordered view of a flat buffer."""
+    n = 1
+    for d in shape:
+        n *= d
+    return buf[o:o + n].reshape(shape)
 
 
 if JIT_ENABLED:
@@ -145,33 +148,63 @@ if JIT_ENABLED:
     from numba.extending import intrinsic
     from numba.np.arrayobj import make_array, populate_array
 
-    @intrinsic
-    def _rows_intrinsic(typingctx: Any, buf: Any, o: Any, n: Any) -> Any:
-        """``buf[o:o + n]`` built directly: no index normalisation or clamping.
-
-        A view is a new array header on the same data; a numba slice of a
-        run-time range generates bounds arithmetic that LLVM must optimise
-        away in every kernel (the packed kernel arrays take 24 of them).
-        The caller guarantees 0 <= o <= o + n <= len(buf).
-        """
-        if not isinstance(buf, types.Array) or buf.layout != "C":
-            return None
+    def _view_codegen(rty: Any) -> Callable[..., Any]:
+        """Code of a C-ordered ``rty`` view of a flat buffer (see :data:`view1`)."""
 
         def codegen(context: Any, builder: Any, sig: Any, args: Any) -> Any:
-            aty = sig.args[0]
-            src = make_array(aty)(context, builder, value=args[0])
-            dst = make_array(aty)(context, builder)
+            src = make_array(sig.args[0])(context, builder, value=args[0])
+            dst = make_array(rty)(context, builder)
             off = context.cast(builder, args[1], sig.args[1], types.intp)
-            cnt = context.cast(builder, args[2], sig.args[2], types.intp)
-            shape = cgutils.unpack_tuple(builder, src.shape, aty.ndim)
-            strides = cgutils.unpack_tuple(builder, src.strides, aty.ndim)
-            data = cgutils.pointer_add(builder, src.data, builder.mul(off, strides[0]))
-            populate_array(dst, data=data, shape=[cnt, *shape[1:]], strides=strides,
+            shape = [context.cast(builder, a, t, types.intp)
+                     for a, t in zip(args[2:], sig.args[2:], strict=True)]
+            item = context.get_constant(types.intp, context.get_abi_sizeof(
+                context.get_data_type(rty.dtype)))
+            strides = [item] * rty.ndim
+            for k in range(rty.ndim - 2, -1, -1):
+                strides[k] = builder.mul(strides[k + 1], shape[k + 1])
+            data = cgutils.gep_inbounds(builder, src.data, off)
+            populate_array(dst, data=data, shape=shape, strides=strides,
                            itemsize=src.itemsize, meminfo=src.meminfo, parent=src.parent)
-            return impl_ret_borrowed(context, builder, aty, dst._getvalue())
+            return impl_ret_borrowed(context, builder, rty, dst._getvalue())
 
-        return buf(buf, o, n), codegen
+        return codegen
 
-    rows: Callable[..., Any] = _rows_intrinsic
+    def _view_type(buf: Any, ndim: int) -> Any:
+        if not isinstance(buf, types.Array) or buf.ndim != 1 or buf.layout != "C":
+            return None
+        return types.Array(buf.dtype, ndim, "C", readonly=not buf.mutable)
+
+    @intrinsic
+    def view1(typingctx: Any, buf: Any, o: Any, d0: Any) -> Any:
+        """``buf[o:o + d0]`` of a flat C buffer as a new header (no bounds arithmetic).
+
+        numba's slicing and reshape generate index normalisation and checks;
+        a kernel builds dozens of views of the packed arrays, which cost
+        seconds of compile time and part of every call.  ``view2`` to
+        ``view4`` give C-ordered 2-, 3- and 4-d views of ``d0 * d1 * ...``
+        elements starting at ``o``.  A read-only buffer gives read-only views.
+        The caller guarantees that the elements lie inside ``buf``.
+        """
+        rty = _view_type(buf, 1)
+        return None if rty is None else (rty(buf, o, d0), _view_codegen(rty))
+
+    @intrinsic
+    def view2(typingctx: Any, buf: Any, o: Any, d0: Any, d1: Any) -> Any:
+        """2-d view (d0, d1) of a flat buffer from element ``o`` (see :func:`view1`)."""
+        rty = _view_type(buf, 2)
+        return None if rty is None else (rty(buf, o, d0, d1), _view_codegen(rty))
+
+    @intrinsic
+    def view3(typingctx: Any, buf: Any, o: Any, d0: Any, d1: Any, d2: Any) -> Any:
+        """3-d view (d0, d1, d2) of a flat buffer from element ``o`` (see :func:`view1`)."""
+        rty = _view_type(buf, 3)
+        return None if rty is None else (rty(buf, o, d0, d1, d2), _view_codegen(rty))
+
+    @intrinsic
+    def view4(typingctx: Any, buf: Any, o: Any, d0: Any, d1: Any, d2: Any, d3: Any) -> Any:
+        """4-d view (d0, d1, d2, d3) of a flat buffer from element ``o`` (see :func:`view1`)."""
+        rty = _view_type(buf, 4)
+        return None if rty is None else (rty(buf, o, d0, d1, d2, d3), _view_codegen(rty))
+
 else:
-    rows = _rows_py
+    view1 = view2 = view3 = view4 = _view_py

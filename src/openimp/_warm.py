@@ -26,7 +26,7 @@ from typing import Any
 from openimp._jit import JIT_ENABLED
 
 #: A kernel the helper compiles last: its cache entry means the helper's work is done.
-_LAST = "kinematics.tracks-"
+_LAST = "track.track-"
 
 
 def _cache_dir() -> str | None:
@@ -72,35 +72,43 @@ def _stop(proc: subprocess.Popen[bytes]) -> None:
 def rate_kernel_signatures() -> list[tuple[Any, tuple[Any, ...]]]:
     """The rate kernels and the argument types a run calls them with.
 
-    The types come from the allocators of the kernels' scratch on a packed
-    placeholder model (the types do not depend on the model): the helper
-    needs neither a model nor the joint checks of building one.
+    The types come from a placeholder model packed from the field tables (the
+    types do not depend on the model, only on whether it has joints of a
+    general kind; a deck's run usually has none): the helper needs neither a
+    model nor the joint checks of building one.
     """
     import numpy as np
     from numba import typeof
 
-    from openimp import kinematics as kin
-    from openimp.system import KFIELDS, KData, pack
+    from openimp.kinematics import rates, track
+    from openimp.system import (
+        DATA_FIELDS,
+        MODEL_FIELDS,
+        State,
+        allocate,
+        read_only,
+    )
 
-    one = {"i": np.zeros(1, np.int64), "l": np.zeros((1, 1), np.int64), "f": np.zeros(1),
-           "m": np.zeros((1, 4, 4)), "v": np.zeros((1, 4))}
-    KP, K = pack({name: one[kind] for name, kind in zip(KData._fields, KFIELDS, strict=True)})
-    w: Any = kin.plain(kin.work_arrays)(K, 1)
-    r: Any = kin.plain(kin.rate_arrays)(K, 1)
-    A, Qb, scr = w[1], w[11], w[12]
-    D4, B4, omega, Kh, dQb, qd = r[0], r[1], r[2], r[3], r[4], r[5]
-    Qs = np.zeros((1, 1))
-    body = np.zeros(1, np.int64)
-    M4 = np.zeros((1, 1, 4, 4))
+    ones = {k: 1 for f in MODEL_FIELDS + DATA_FIELDS for k in f.shape if isinstance(k, str)}
+    KP = read_only(allocate(MODEL_FIELDS, ones))
+    DP = allocate(DATA_FIELDS, ones)
+    v = np.zeros(1)
+    S = State(v, v, v, v, np.zeros(1, np.bool_), np.zeros(1, np.bool_), v)
+    none = None
+    Q = np.zeros((1, 1))
+    sel = track.Selection(np.zeros(1, np.int64), np.zeros(1, np.int64))
+    out = track.Tracked(np.zeros((1, 1, 4, 4)), np.zeros((1, 1, 3)), np.zeros((1, 1, 6)),
+                        np.zeros((1, 1, 6)))
 
     def types(*args: Any) -> tuple[Any, ...]:
         return tuple(typeof(a) for a in args)
 
     return [
-        (kin.operators, types(KP, qd, A, D4, B4, Qb, dQb, scr)),
-        (kin.tree_operators, types(KP, qd, D4, Kh, False, omega)),
-        (kin.drift_terms, types(KP, qd, D4, B4, omega, Kh)),
-        (kin.tracks, types(KP, Qs, Qs, Qs, body, body, M4, np.zeros((1, 1, 3)), M4, M4)),
+        (rates.velocity, types(KP, DP, S)),
+        (rates.drift, types(KP, DP, S, none)),
+        (rates.velocity_product, types(KP, DP, S, none, 0)),
+        (rates.accelerations, types(KP, DP, S)),
+        (track.track, types(KP, DP, S, none, track.Rows(Q, Q, Q), sel, out)),
     ]
 
 

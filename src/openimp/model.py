@@ -5,23 +5,20 @@ A :class:`Model` is mutable and validated as it is built: every misuse raises
 All geometry is given in global coordinates at one *modeling posture*: body
 frames coincide with the global frame there (unless :meth:`Model.set_body_frame`
 moves one), joint frames and points are placed from global data.
-:meth:`Model.compile` turns it into the immutable flat-array
-:class:`~openimp.system.System`.
+:func:`openimp.compile` (:func:`openimp.system.compile_model`) turns it into the
+immutable packed :class:`~openimp.system.System`.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from openimp.errors import InputError
 from openimp.joints import ALIAS_AXES, JointType, joint_type
-
-if TYPE_CHECKING:
-    from openimp.system import System
 
 Vec = Sequence[float] | np.ndarray
 
@@ -280,13 +277,6 @@ class Model:
         pt = Point(name, body, p)
         self.points[name] = pt
         return pt
-
-    # ------------------------------------------------------------------ compile
-    def compile(self) -> System:
-        """Check the model and build its immutable flat-array :class:`System`."""
-        from openimp.system import compile_model
-
-        return compile_model(self)
 
     def __repr__(self) -> str:
         return (

@@ -4,7 +4,7 @@ A motion is any object with ``__call__(t) -> (position, velocity, acceleration)`
 over an array of times ``t``; positions in radians or model lengths.  The
 classes here cover the usual inputs of a kinematic analysis: constant rate,
 polynomial, harmonic, tabulated (cubic spline) and a user callable.  They feed
-``System.sweep(motion={...}, times=...)``.
+``openimp.sweep(system, motion={...}, times=...)``.
 """
 
 from __future__ import annotations

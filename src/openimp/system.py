@@ -1,144 +1,325 @@
-"""The compiled, immutable flat-array form of a model (book ch 5-6).
+"""Model, Data and State of a compiled mechanism (book ch 5-6).
 
-:func:`compile_model` checks a :class:`~openimp.model.Model`, finds its
-topology (:mod:`openimp.topology`), scales lengths internally (book 6.7: the
-diagonal of the bounding box of all frame origins and points is one internal
-unit), builds the shape matrices ``S`` and extracts the joint variables at the
-modeling posture with each joint's conformity check.  The result,
-:class:`System`, holds only numpy arrays in :class:`KData` for the kernels of
-:mod:`openimp.kinematics`, plus the name maps that results use.
+Three objects, as in MuJoCo (``mjModel``/``mjData``) and Pinocchio
+(``Model``/``Data``), flow through every analysis:
+
+* :class:`System`, the compiled model: :func:`compile_model` checks a
+  :class:`~openimp.model.Model`, finds its topology (:mod:`openimp.topology`),
+  scales lengths internally (book 6.7: the diagonal of the bounding box of all
+  frame origins and points is one internal unit), builds the shape matrices
+  ``S`` and extracts the joint variables at the modeling posture with each
+  joint's conformity check.  Its arrays are immutable (read-only) and packed
+  from one field table, :data:`MODEL_FIELDS`, into three flat buffers ``KP``.
+* :class:`Data`, the mutable scratch of one solve (postures, operators, the
+  Jacobian and its elimination, rates), packed the same way from
+  :data:`DATA_FIELDS`; allocated once per sweep and reused every step.
+* :class:`State`: time, joint variables, rates, the SGC/FGC partition and the
+  state-dependent signs of gears and racks.
+
+Compiled kernels take ``(KP, DP, state, a few scalars)``: ``KP`` and ``DP``
+are tuples of three flat buffers (int64 with a header, float64, bool), and
+:func:`model_views` / :func:`data_views` rebuild the named views inside a
+kernel.  numba passes every array of a tuple argument as separate words on each
+call; three buffers instead of dozens of arrays keep that copying small.
+Dynamic quantities will live in a second packed group of each, so the
+kinematic kernels keep their signatures and their cache.
 """
 
 from __future__ import annotations
 
 from collections import namedtuple
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import cached_property
-from typing import TYPE_CHECKING, Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from openimp import topology as _topology
-from openimp._jit import njit, rows
+from openimp._jit import njit, view1, view2, view3, view4
 from openimp.errors import InputError
-from openimp.joints import conformity
+from openimp.joints import MAXV, conformity
+from openimp.joints.codes import CLOSED_FORM
+from openimp.spatial import inverse as _rigid_inverse
 
-if TYPE_CHECKING:
-    from openimp.kinematics import SweepResult
-    from openimp.model import Model
 
-#: The arrays the kernels work on (all internal units).
-#:
-#: jcode, jnv, jq0, jc0: per joint kind code, number of variables, offset of its
-#: variables in q, offset of its constants in ``const``; jb1, jb2: its first and
-#: second body; S1 = S_{h-,h}, S2 = S_{h+,h}, S1inv and S2inv their inverses; order: bodies in
-#: tree order; pj, pb, psign: parent joint, parent body and orientation sign of
-#: each body (-1 for reference bodies); Tref: postures of the reference bodies;
-#: chord: the cut-set joint of every loop; L: loop matrix; P: path matrix;
-#: er: index in q of the first of every block of 4 Euler-Rodrigues parameters;
-#: vjoint: joint of every variable; ptbody, ptlocal: body and body-frame
-#: homogeneous coordinates of every point; gen: the joints whose kind is not
-#: rigid, revolute, prismatic or cylindric (their Phi and Q go through the
-#: general joint functions).
-KData = namedtuple(
-    "KData",
-    "jcode jnv jq0 jc0 jb1 jb2 S1 S2 S1inv S2inv const order pj pb psign Tref chord L P er "
-    "vjoint ptbody ptlocal gen",
+# =============================================================================
+# Field tables and packing
+# =============================================================================
+@dataclass(frozen=True)
+class Field:
+    """One packed array: its name, element type, shape and meaning.
+
+    ``kind`` is ``"i"`` (int64), ``"f"`` (float64) or ``"b"`` (bool); ``shape``
+    names the sizes of its dimensions (keys of the sizes mapping, or ints).
+    """
+
+    name: str
+    kind: str
+    shape: tuple[str | int, ...]
+    doc: str
+
+
+#: The kinematic group of the compiled model (internal units).  Sizes: nj joints,
+#: nb bodies, nl loops, nc Euler-Rodrigues normalisation rows, nq joint variables,
+#: npt points, ngen joints of a general kind, nconst constants.
+MODEL_FIELDS: tuple[Field, ...] = (
+    Field("jcode", "i", ("nj",), "kind code of joint h (openimp.joints.codes)"),
+    Field("jnv", "i", ("nj",), "number of variables of joint h"),
+    Field("jq0", "i", ("nj",), "offset of joint h's variables in q"),
+    Field("jc0", "i", ("nj",), "offset of joint h's constants in const"),
+    Field("jb1", "i", ("nj",), "first body h- of joint h (carries the unprimed frame)"),
+    Field("jb2", "i", ("nj",), "second body h+ of joint h (carries the primed frame)"),
+    Field("S1", "f", ("nj", 4, 4), "shape matrix S_{h-,h}: joint frame in its first body"),
+    Field("S2", "f", ("nj", 4, 4), "shape matrix S_{h+,h}: joint frame in its second body"),
+    Field("S1inv", "f", ("nj", 4, 4), "S_{h-,h}^-1"),
+    Field("S2inv", "f", ("nj", 4, 4), "S_{h+,h}^-1"),
+    Field("const", "f", ("nconst",), "joint constants (a joint's from jc0), one spare 0"),
+    Field("order", "i", ("nb",), "bodies in tree order (every body after its parent)"),
+    Field("pj", "i", ("nb",), "parent (tree) joint of body b, -1 for reference bodies"),
+    Field("pb", "i", ("nb",), "parent body of body b, -1 for reference bodies"),
+    Field("psign", "i", ("nb",), "+1 when b is its parent joint's second body, -1 if first"),
+    Field("Tref", "f", ("nb", 4, 4), "posture T_0b of every body at the modeling posture"),
+    Field("chord", "i", ("nl",), "cut-set joint closing loop i"),
+    Field("L", "i", ("nl", "nj"), "loop matrix (ch 2): +-1 where joint h is in loop i"),
+    Field("P", "i", ("nb", "nj"), "path matrix (ch 2): +-1 where joint h is on b's path"),
+    Field("er", "i", ("nc",), "index in q of the first of every Euler-Rodrigues block"),
+    Field("vjoint", "i", ("nq",), "joint of every variable"),
+    Field("ptbody", "i", ("npt",), "body of every point"),
+    Field("ptlocal", "f", ("npt", 4), "homogeneous body-frame coordinates of every point"),
+    Field("gen", "i", ("ngen",), "joints of a kind evaluated by joint_calc (not closed form)"),
 )
 
-#: Where every :data:`KData` field lives in the packed form, in field order:
-#: "i" int64 vectors (KI), "l" int64 rows of nj (KL), "f" float64 vectors
-#: (KF), "m" 4x4 float64 matrices (KM), "v" float64 rows of 4 (KV).
-KFIELDS = "iiiiii" "mmmm" "f" "iiii" "m" "i" "ll" "iii" "v" "i"
-_BUFFERS = "ilfmv"
+KModel = namedtuple("KModel", [f.name for f in MODEL_FIELDS])  # type: ignore[misc]
+
+#: The scratch of one kinematic solve.  Sizes: nb, nj, nq as above, m = 6 nl + nc rows of
+#: the loop equations, kk = max(min(m, nq), 1) pivots, nd drivers of a sweep.
+DATA_FIELDS: tuple[Field, ...] = (
+    Field("T0", "f", ("nb", 4, 4), "posture T_0b of every body (5.4, 5.5)"),
+    Field("A", "f", ("nj", 4, 4), "A_h = T_{0,h-} S_{h-,h}: joint frame h in the ground (6.13)"),
+    Field("Phi", "f", ("nj", 4, 4), "Phi_h of the joints of a general kind (joint_calc)"),
+    Field("Qj", "f", ("nq", 4, 4), "Q_h^g of the variables of a general kind, joint frame"),
+    Field("dQj", "f", (MAXV, MAXV, 4, 4), "Q_h^{g,i} of one joint (8.2), joint frame"),
+    Field("M4", "f", (8, 4, 4), "4x4 scratch"),
+    Field("Dh", "f", ("nq", 6), "screw of D_h^g = A_h Q_h^g A_h^-1 per variable (6.14, 6.41)"),
+    Field("Bh", "f", ("nq", MAXV, 6), "screws of A_h Q_h^{g,i} A_h^-1 (8.24), for q-dependent Q"),
+    Field("J", "f", ("m", "nq"), "Jacobian of the loop equations (6.45)"),
+    Field("E", "f", ("m",), "loop residuals (6.40, 6.48) and normalisation rows (6.43)"),
+    Field("T", "f", ("m", "nq1"), "tableau [J | E] reduced by the elimination (6.5.3)"),
+    Field("prow", "i", ("kk",), "row of pivot k"),
+    Field("pcol", "i", ("kk",), "column (dependent variable) of pivot k"),
+    Field("pinv", "f", ("kk",), "1 / pivot k"),
+    Field("mult", "f", ("kk", "m"), "multiple of pivot row k taken from row r"),
+    Field("used", "b", ("mq1",), "rows and columns already pivoted"),
+    Field("dq", "f", ("nq",), "Newton correction"),
+    Field("rhs", "f", ("m",), "right-hand side (acceleration equations 8.40)"),
+    Field("V", "f", ("nb", 6), "screw of the velocity operator omega_b of every body (7.22)"),
+    Field("Ab", "f", ("nb", 6), "screw of the acceleration operator alpha_b (8.52)"),
+    Field("Kh", "f", ("nj", 6), "drift screw of every joint (8.26, 8.39)"),
+    Field("qlast", "f", ("nq",), "last solved posture of a sweep"),
+    Field("isdriver", "b", ("nq",), "variables driven in a sweep"),
+    Field("G", "f", ("nq", "nd"), "first geometric derivatives dq/dpsi of the drivers (7.14)"),
+    Field("Gp", "f", ("nq", "nd"), "G one step back (second-order predictor)"),
+    Field("dprev", "f", ("nd",), "driver move of the last step"),
+    Field("dnew", "f", ("nd",), "driver move of this step"),
+)
+
+KWork = namedtuple("KWork", [f.name for f in DATA_FIELDS])  # type: ignore[misc]
+
+#: header entries per field in the int buffer: offset, then up to four dimensions
+HEAD = 5
+_DTYPES = {"i": np.int64, "f": np.float64, "b": np.bool_}
+_BUFFER = {"i": 0, "f": 1, "b": 2}
 
 
-def pack(fields: Mapping[str, np.ndarray]) -> tuple[tuple[np.ndarray, ...], Any]:
-    """The packed form ``KP = (KI, KL, KF, KM, KV)`` of the kernel arrays, and :data:`KData` views.
+def _dims(shape: tuple[str | int, ...], sizes: Mapping[str, int]) -> tuple[int, ...]:
+    return tuple(int(sizes[d]) if isinstance(d, str) else int(d) for d in shape)
 
-    Compiled kernels take ``KP``: five arrays instead of 24, because numba
-    passes every array of a tuple argument as separate words on each call,
-    and that copying cost more than a four-bar's arithmetic.  Each buffer
-    stacks the fields of one element type and row shape along its first
-    axis, so a field is a slice of rows (no reshape).  ``KI`` starts with a
-    header: per field, its first row and its number of rows.
-    :func:`unpack` rebuilds the views inside a kernel; the returned
-    :data:`KData` holds the same views for Python code.
+
+def pack(table: tuple[Field, ...], arrays: Mapping[str, np.ndarray]
+         ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Pack the arrays of a field table into three flat buffers ``(I, F, B)``.
+
+    ``I`` (int64) starts with a header: per field, its offset in its own
+    buffer and its dimensions (:data:`HEAD` entries); the int fields follow.
+    ``F`` holds the float64 fields, ``B`` the bool ones, each C-ordered.
+    :func:`views` (Python) and the compiled :func:`model_views` /
+    :func:`data_views` rebuild the arrays as views of the buffers.
     """
-    arrays = [np.asarray(fields[name]) for name in KData._fields]
-    head = np.zeros(2 * len(arrays), np.int64)
-    nrows = {k: 0 for k in _BUFFERS}
-    nrows["i"] = head.size
-    for f, (kind, a) in enumerate(zip(KFIELDS, arrays, strict=True)):
-        head[2 * f] = nrows[kind]
-        head[2 * f + 1] = a.shape[0]
-        nrows[kind] += a.shape[0]
-    nj = len(fields["jcode"])
-    bufs = {
-        "i": np.zeros(nrows["i"], np.int64), "l": np.zeros((nrows["l"], nj), np.int64),
-        "f": np.zeros(nrows["f"]), "m": np.zeros((nrows["m"], 4, 4)),
-        "v": np.zeros((nrows["v"], 4)),
-    }
-    bufs["i"][:head.size] = head
-    views = []
-    for f, (kind, a) in enumerate(zip(KFIELDS, arrays, strict=True)):
-        o = int(head[2 * f])
-        v = bufs[kind][o:o + a.shape[0]]
-        v[...] = a
-        views.append(v)
-    return tuple(bufs[k] for k in _BUFFERS), KData(*views)
+    head = np.zeros(HEAD * len(table), np.int64)
+    used = [head.size, 0, 0]
+    for k, f in enumerate(table):
+        a = np.asarray(arrays[f.name])
+        if a.ndim != len(f.shape) or a.ndim > 4:
+            raise ValueError(f"field {f.name}: expected {len(f.shape)} dimensions, got {a.shape}")
+        b = _BUFFER[f.kind]
+        head[HEAD * k] = used[b]
+        head[HEAD * k + 1:HEAD * k + 1 + a.ndim] = a.shape
+        head[HEAD * k + 1 + a.ndim:HEAD * (k + 1)] = 1
+        used[b] += a.size
+    bufs = [np.zeros(used[0], np.int64), np.zeros(used[1]), np.zeros(used[2], np.bool_)]
+    bufs[0][:head.size] = head
+    for k, f in enumerate(table):
+        a = np.asarray(arrays[f.name])
+        o = int(head[HEAD * k])
+        bufs[_BUFFER[f.kind]][o:o + a.size] = a.reshape(-1)
+    return bufs[0], bufs[1], bufs[2]
 
 
-@njit(inline="always")
-def unpack(KP: tuple) -> Any:
-    """The :data:`KData` views of the packed arrays ``KP`` (see :func:`pack`).
-
-    Inlined (numba IR) into each kernel, where the views take the kernel's
-    reference-counting mode and LLVM drops the ones the kernel does not
-    read.  Each view is a bare array header (:func:`openimp._jit.rows`);
-    numba's slicing would add index arithmetic that cost 10 s of a cold
-    start over all kernels.
-    """
-    KI, KL, KF, KM, KV = KP
-    return KData(
-        rows(KI, KI[0], KI[1]),
-        rows(KI, KI[2], KI[3]),
-        rows(KI, KI[4], KI[5]),
-        rows(KI, KI[6], KI[7]),
-        rows(KI, KI[8], KI[9]),
-        rows(KI, KI[10], KI[11]),
-        rows(KM, KI[12], KI[13]),
-        rows(KM, KI[14], KI[15]),
-        rows(KM, KI[16], KI[17]),
-        rows(KM, KI[18], KI[19]),
-        rows(KF, KI[20], KI[21]),
-        rows(KI, KI[22], KI[23]),
-        rows(KI, KI[24], KI[25]),
-        rows(KI, KI[26], KI[27]),
-        rows(KI, KI[28], KI[29]),
-        rows(KM, KI[30], KI[31]),
-        rows(KI, KI[32], KI[33]),
-        rows(KL, KI[34], KI[35]),
-        rows(KL, KI[36], KI[37]),
-        rows(KI, KI[38], KI[39]),
-        rows(KI, KI[40], KI[41]),
-        rows(KI, KI[42], KI[43]),
-        rows(KV, KI[44], KI[45]),
-        rows(KI, KI[46], KI[47]),
-    )
+def allocate(table: tuple[Field, ...], sizes: Mapping[str, int]
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Zeroed buffers of a field table for the given sizes (see :func:`pack`)."""
+    return pack(table, {f.name: np.zeros(_dims(f.shape, sizes), _DTYPES[f.kind])
+                        for f in table})
 
 
-def _rigid_inverse(T: np.ndarray) -> np.ndarray:
-    out = np.eye(4)
-    out[:3, :3] = T[:3, :3].T
-    out[:3, 3] = -T[:3, :3].T @ T[:3, 3]
+def views(table: tuple[Field, ...], P: tuple[np.ndarray, ...]) -> list[np.ndarray]:
+    """The arrays of a field table as numpy views of its packed buffers (Python side)."""
+    head = P[0]
+    out = []
+    for k, f in enumerate(table):
+        o = int(head[HEAD * k])
+        dims = tuple(int(d) for d in head[HEAD * k + 1:HEAD * k + 1 + len(f.shape)])
+        n = int(np.prod(dims)) if dims else 1
+        out.append(P[_BUFFER[f.kind]][o:o + n].reshape(dims))
     return out
 
 
-@dataclass(frozen=True)
+# one view per field: the header of field k gives its offset and dimensions
+@njit(inline="always")
+def _v1(buf: np.ndarray, H: np.ndarray, k: int) -> np.ndarray:
+    return view1(buf, H[HEAD * k], H[HEAD * k + 1])
+
+
+@njit(inline="always")
+def _v2(buf: np.ndarray, H: np.ndarray, k: int) -> np.ndarray:
+    return view2(buf, H[HEAD * k], H[HEAD * k + 1], H[HEAD * k + 2])
+
+
+@njit(inline="always")
+def _v3(buf: np.ndarray, H: np.ndarray, k: int) -> np.ndarray:
+    return view3(buf, H[HEAD * k], H[HEAD * k + 1], H[HEAD * k + 2], H[HEAD * k + 3])
+
+
+@njit(inline="always")
+def _v4(buf: np.ndarray, H: np.ndarray, k: int) -> np.ndarray:
+    return view4(buf, H[HEAD * k], H[HEAD * k + 1], H[HEAD * k + 2], H[HEAD * k + 3],
+                 H[HEAD * k + 4])
+
+
+@njit(inline="always")
+def model_views(KP: tuple) -> Any:
+    """The :data:`MODEL_FIELDS` of a packed model ``KP = (I, F, B)`` as named views.
+
+    Inlined (numba IR) into each kernel, where the views take the kernel's
+    reference-counting mode and LLVM drops the ones the kernel does not
+    read.  The order and dimensions follow :data:`MODEL_FIELDS` (a test
+    checks every field against :func:`views`).
+    """
+    I, F, _ = KP
+    return KModel(
+        _v1(I, I, 0), _v1(I, I, 1), _v1(I, I, 2), _v1(I, I, 3), _v1(I, I, 4), _v1(I, I, 5),
+        _v3(F, I, 6), _v3(F, I, 7), _v3(F, I, 8), _v3(F, I, 9), _v1(F, I, 10),
+        _v1(I, I, 11), _v1(I, I, 12), _v1(I, I, 13), _v1(I, I, 14), _v3(F, I, 15),
+        _v1(I, I, 16), _v2(I, I, 17), _v2(I, I, 18), _v1(I, I, 19), _v1(I, I, 20),
+        _v1(I, I, 21), _v2(F, I, 22), _v1(I, I, 23),
+    )
+
+
+@njit(inline="always")
+def data_views(DP: tuple) -> Any:
+    """The :data:`DATA_FIELDS` of packed data ``DP = (I, F, B)`` as named views
+    (see :func:`model_views`)."""
+    I, F, B = DP
+    return KWork(
+        _v3(F, I, 0), _v3(F, I, 1), _v3(F, I, 2), _v3(F, I, 3), _v4(F, I, 4), _v3(F, I, 5),
+        _v2(F, I, 6), _v3(F, I, 7), _v2(F, I, 8), _v1(F, I, 9), _v2(F, I, 10),
+        _v1(I, I, 11), _v1(I, I, 12), _v1(F, I, 13), _v2(F, I, 14), _v1(B, I, 15),
+        _v1(F, I, 16), _v1(F, I, 17), _v2(F, I, 18), _v2(F, I, 19), _v2(F, I, 20),
+        _v1(F, I, 21), _v1(B, I, 22), _v2(F, I, 23), _v2(F, I, 24), _v1(F, I, 25),
+        _v1(F, I, 26),
+    )
+
+
+# =============================================================================
+# State
+# =============================================================================
+class State(NamedTuple):
+    """The state of a mechanism at one instant, in internal units (book 6.5.3, 6.9).
+
+    What an analysis reads and writes besides the constant model and its
+    scratch.  Kernels take it as it is (a named tuple of arrays).
+
+    t: (1,) time; q: (nq,) joint variables; qd: (nq,) their rates; qdd: (nq,)
+    their accelerations; sgc: (nq,) bool, the specified generalized
+    coordinates (driven or held; never pivoted); fgc: (nq,) bool, the free
+    generalized coordinates left by the last elimination; load_sign: (nj,)
+    sgn(F) of every gear and rack (4.28, 4.31; 0 elsewhere and in
+    kinematics), set by force analysis.
+    """
+
+    t: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+    qdd: np.ndarray
+    sgc: np.ndarray
+    fgc: np.ndarray
+    load_sign: np.ndarray
+
+    @property
+    def time(self) -> float:
+        """The time, a float."""
+        return float(self.t[0])
+
+    def copy(self) -> State:
+        """An independent copy (every array copied)."""
+        return State(*(a.copy() for a in self))
+
+
+def make_state(system: System, q: np.ndarray | None = None, t: float = 0.0) -> State:
+    """A state at joint variables ``q`` (internal units; default the modeling posture),
+    at rest, nothing specified, the gears' and racks' initial load signs."""
+    nq = system.nq
+    q = system.q0 if q is None else np.asarray(q, dtype=float)
+    return State(np.array([float(t)]), np.array(q, dtype=float, copy=True), np.zeros(nq),
+                 np.zeros(nq), np.zeros(nq, np.bool_), np.zeros(nq, np.bool_),
+                 system.load_sign0.copy())
+
+
+# =============================================================================
+# Data
+# =============================================================================
+@dataclass(frozen=True, eq=False)
+class Data:
+    """The mutable scratch of one solve (:data:`DATA_FIELDS`), allocated once and reused.
+
+    ``DP`` is the packed form the kernels take; ``v`` the same arrays as
+    named numpy views for Python code (``data.v.T``, ``data.v.pcol`` ...).
+    """
+
+    DP: tuple[np.ndarray, np.ndarray, np.ndarray]
+    v: Any
+
+
+def data_sizes(system: System, nd: int = 0) -> dict[str, int]:
+    """The sizes of :data:`DATA_FIELDS` for ``system`` and ``nd`` drivers."""
+    nq, m = system.nq, system.nrows
+    return {"nb": len(system.bodies), "nj": len(system.joints), "nq": nq, "m": m,
+            "nq1": nq + 1, "mq1": m + nq + 1, "kk": max(min(m, nq), 1), "nd": nd}
+
+
+def make_data(system: System, nd: int = 0) -> Data:
+    """The scratch of one solve of ``system`` with ``nd`` drivers."""
+    DP = allocate(DATA_FIELDS, data_sizes(system, nd))
+    return Data(DP, KWork(*views(DATA_FIELDS, DP)))
+
+
+# =============================================================================
+# The compiled model
+# =============================================================================
+@dataclass(frozen=True, eq=False)
 class System:
-    """A compiled model: flat arrays, names and the modeling posture.
+    """A compiled model: read-only packed arrays, names and the modeling posture.
 
     Attributes
     ----------
@@ -150,8 +331,9 @@ class System:
     var_kinds: ``angle``, ``length`` or ``er`` per variable.
     length_scale: one internal length unit in model units (book 6.7).
     q0: joint variables at the modeling posture (internal units).
-    K: the kernel arrays (:data:`KData`), views of ``KP``.
-    KP: the same arrays packed for the compiled kernels (:func:`pack`).
+    load_sign0: initial load sign of every joint (gears and racks; 0 elsewhere).
+    KP: the packed kinematic group (:data:`MODEL_FIELDS`), read-only buffers.
+    K: the same arrays as named numpy views.
     topology: the :class:`~openimp.topology.Topology`.
     """
 
@@ -165,8 +347,9 @@ class System:
     var_kinds: tuple[str, ...]
     length_scale: float
     q0: np.ndarray
+    load_sign0: np.ndarray
+    KP: tuple[np.ndarray, np.ndarray, np.ndarray]
     K: Any
-    KP: tuple[np.ndarray, ...]
     topology: _topology.Topology
 
     # ------------------------------------------------------------- sizes/names
@@ -189,6 +372,12 @@ class System:
     def nrows(self) -> int:
         """Rows of the Jacobian: 6 per loop plus NC."""
         return 6 * self.nloops + self.nconstraints
+
+    @property
+    def gen(self) -> np.ndarray | None:
+        """The joints of a general kind (``K.gen``), or None when every joint has a
+        closed form: kernels given None never compile the general joint evaluation."""
+        return self.K.gen if self.K.gen.size else None
 
     @cached_property
     def var_scale(self) -> np.ndarray:
@@ -277,22 +466,6 @@ class System:
         """Joint variables at the modeling posture, model units."""
         return self.to_model(self.q0)
 
-    # ------------------------------------------------------------- analyses
-    def sweep(
-        self,
-        drivers: Mapping[Any, Sequence[float] | np.ndarray] | None = None,
-        rates: Mapping[Any, Sequence[float] | np.ndarray] | None = None,
-        accels: Mapping[Any, Sequence[float] | np.ndarray] | None = None,
-        **options: Any,
-    ) -> SweepResult:
-        """Move the mechanism through a sequence of driver values.
-
-        See :func:`openimp.kinematics.sweep` for the options.
-        """
-        from openimp.kinematics import sweep
-
-        return sweep(self, drivers, rates=rates, accels=accels, **options)
-
     def __repr__(self) -> str:
         return (
             f"System({self.name!r}: {len(self.bodies)} bodies, {len(self.joints)} joints, "
@@ -300,8 +473,18 @@ class System:
         )
 
 
-def compile_model(model: Model) -> System:
-    """Check ``model`` and build its :class:`System` (see the module docstring)."""
+def read_only(P: tuple[np.ndarray, ...]) -> tuple[np.ndarray, ...]:
+    """The buffers of a packed model, flagged read-only (kernels cannot write them)."""
+    for a in P:
+        a.setflags(write=False)
+    return P
+
+
+def compile_model(model: Any) -> System:
+    """Check ``model`` (a :class:`~openimp.model.Model`) and build its :class:`System`.
+
+    See the module docstring.
+    """
     if not model.joints:
         raise InputError(f"model {model.name!r} has no joints; add joints before compiling")
     bodies = list(model.bodies)
@@ -342,12 +525,11 @@ def compile_model(model: Model) -> System:
     nj = len(jlist)
     S1 = np.zeros((nj, 4, 4))
     S2 = np.zeros((nj, 4, 4))
-    S1inv = np.zeros((nj, 4, 4))
-    S2inv = np.zeros((nj, 4, 4))
     jcode = np.zeros(nj, np.int64)
     jnv = np.zeros(nj, np.int64)
     jq0 = np.zeros(nj, np.int64)
     jc0 = np.zeros(nj, np.int64)
+    sign0 = np.zeros(nj)
     consts: list[float] = []
     q0: list[float] = []
     var_names: list[str] = []
@@ -360,8 +542,6 @@ def compile_model(model: Model) -> System:
         F2 = scaled(j.frame2)
         S1[h] = _rigid_inverse(Tb[first[h]]) @ F1
         S2[h] = _rigid_inverse(Tb[second[h]]) @ F2
-        S1inv[h] = _rigid_inverse(S1[h])
-        S2inv[h] = _rigid_inverse(S2[h])
         c = np.asarray(j.consts, dtype=float).copy()
         for k, kind in enumerate(jt.const_kinds):
             if kind == "length":
@@ -373,6 +553,7 @@ def compile_model(model: Model) -> System:
         Phi = _rigid_inverse(F1) @ F2
         # conformity may complete constants from the frames (a gear's centre distance)
         q = conformity(jt, j.name, Phi, c, Ls, tol=1e-7)
+        sign0[h] = jt.load_sign(c)
         consts.extend(c.tolist())
         for e in jt.er_groups:
             er.append(len(q0) + e)
@@ -386,10 +567,11 @@ def compile_model(model: Model) -> System:
     for i, p in enumerate(model.points.values()):
         ptlocal[i] = _rigid_inverse(Tb[bidx[p.body]]) @ np.append(p.xyz / Ls, 1.0)
 
-    KP, K = pack(dict(
+    KP = read_only(pack(MODEL_FIELDS, dict(
         jcode=jcode, jnv=jnv, jq0=jq0, jc0=jc0,
         jb1=np.array(first, np.int64), jb2=np.array(second, np.int64),
-        S1=S1, S2=S2, S1inv=S1inv, S2inv=S2inv, const=np.array([*consts, 0.0]),
+        S1=S1, S2=S2, S1inv=_rigid_inverse(S1), S2inv=_rigid_inverse(S2),
+        const=np.array([*consts, 0.0]),
         order=np.asarray(topo.order, np.int64),
         pj=np.asarray(topo.parent_joint, np.int64),
         pb=np.asarray(topo.parent_body, np.int64),
@@ -402,8 +584,11 @@ def compile_model(model: Model) -> System:
         vjoint=np.array(vjoint, np.int64),
         ptbody=ptbody,
         ptlocal=ptlocal,
-        gen=np.array([h for h in range(nj) if jcode[h] not in (0, 1, 2, 4)], np.int64),
-    ))
+        gen=np.array([h for h in range(nj) if jcode[h] not in CLOSED_FORM], np.int64),
+    )))
+    q0a = np.array(q0, dtype=float)
+    q0a.setflags(write=False)
+    sign0.setflags(write=False)
     return System(
         name=model.name,
         bodies=tuple(bodies),
@@ -414,8 +599,9 @@ def compile_model(model: Model) -> System:
         var_names=tuple(var_names),
         var_kinds=tuple(var_kinds),
         length_scale=Ls,
-        q0=np.array(q0, dtype=float),
-        K=K,
+        q0=q0a,
+        load_sign0=sign0,
         KP=KP,
+        K=KModel(*views(MODEL_FIELDS, KP)),
         topology=topo,
     )

@@ -41,6 +41,7 @@ from openimp.imp.expr import Expression
 from openimp.imp.jointmap import IMP_JOINTS, bevel_frames, placement_frames
 from openimp.imp.parser import JOINT_DOF, Statement, parse_file
 from openimp.model import Model
+from openimp.system import compile_model
 
 __all__ = [
     "Deck",
@@ -1180,7 +1181,7 @@ def compile_built(built: Built, state: State, where: Where) -> Any:
     import re
 
     try:
-        return built.model.compile()
+        return compile_model(built.model)
     except InputError as exc:
         msg = str(exc)
         m = re.search(r"joint '([^']+)'", msg)

@@ -51,6 +51,8 @@ from openimp.imp.interp import (
     compile_built,
 )
 from openimp.imp.jointmap import ImpJoint, imp_variables, to_degrees
+from openimp.kinematics import check_drivers, free_coordinate, sweep
+from openimp.system import make_state
 
 __all__ = ["Prepared", "Solution", "execute_run", "run_deck", "validate"]
 
@@ -191,8 +193,6 @@ def validate(spec: RunSpec) -> Prepared:
     cached = getattr(spec, "_prepared", None)
     if cached is not None:
         return cached  # type: ignore[no-any-return]
-    from openimp.kinematics import check_drivers
-
     state = spec.state
     for ex in state.values.values():
         ex.load_tables()  # a TABLE file that cannot be read is an input error
@@ -201,14 +201,13 @@ def validate(spec: RunSpec) -> Prepared:
     items, unsupported = _request_items(state, built)
     drivers = _drivers(state, built, system) if spec.mode == "kinematic" else []
     if drivers:
-        sgc = np.zeros(system.nq, np.bool_)
         cols = np.array([d.column for d in drivers], np.int64)
         if len(set(cols.tolist())) != len(cols):  # pragma: no cover - one input per joint
             raise InputError("EXECUTE: a joint variable is driven twice", spec.where)
-        sgc[cols] = True
+        start = make_state(system)
+        start.sgc[cols] = True
         try:
-            check_drivers(system, system.q0.copy(), sgc, cols, state.tolerance("SYSTEM")[0],
-                          True)
+            check_drivers(system, start, cols, state.tolerance("SYSTEM")[0], True)
         except InputError as exc:
             where = drivers[-1].inp.where
             raise InputError(f"EXECUTE: {exc} (the input motions are given by DATA POSITION / "
@@ -457,7 +456,7 @@ def solve(prep: Prepared, times: np.ndarray, start: np.ndarray | None,
     if lagged:  # the values at the start posture: a sweep that holds every driver
         q0 = system.modeling_q if cur is None else cur
         try:
-            pre = system.sweep({c: [q0[drv_cols[j]]] for j, c in enumerate(names)},
+            pre = sweep(system, {c: [q0[drv_cols[j]]] for j, c in enumerate(names)},
                                rates={c: [0.0] for c in names}, tol=tol, pivot_tol=ptol,
                                maxit=maxit, hold_free=True, start=cur)
             pacc = _Accumulator(bodies, points)
@@ -475,7 +474,7 @@ def solve(prep: Prepared, times: np.ndarray, start: np.ndarray | None,
                 0 if s is not None else -1, times[kk], motions, kk, notes))
         sl = slice(k, k + m)
         try:
-            res = system.sweep({c: motions.p[sl, j] for j, c in enumerate(names)},
+            res = sweep(system, {c: motions.p[sl, j] for j, c in enumerate(names)},
                                rates={c: motions.v[sl, j] for j, c in enumerate(names)},
                                accels={c: motions.a[sl, j] for j, c in enumerate(names)},
                                tol=tol, pivot_tol=ptol, maxit=maxit, hold_free=True, start=cur)
@@ -507,17 +506,7 @@ def _why(msg: str) -> str:
 
 def _free_column(system: Any, q: np.ndarray | None) -> int | None:
     """A free joint variable to hold when a run has no input motion (None for a structure)."""
-    from openimp.kinematics import Work
-
-    w = Work(system.K, system.nq)
-    qi = system.q0.copy() if q is None else system.to_internal(q)
-    sgc = np.zeros(system.nq, np.bool_)
-    rank = w.eliminate(system.KP, qi, sgc, 1e-10)[0]
-    piv = set(int(c) for c in w.pcol[:rank])
-    for c in range(system.nq):
-        if c not in piv and system.var_kinds[c] != "er":
-            return c
-    return None
+    return free_coordinate(system, None if q is None else system.to_internal(q))
 
 
 def _structure(prep: Prepared, times: np.ndarray, cur: np.ndarray | None, acc: _Accumulator,
@@ -526,7 +515,7 @@ def _structure(prep: Prepared, times: np.ndarray, cur: np.ndarray | None, acc: _
     st = prep.spec.state
     tol = st.tolerance("POSITION")[0] if "POSITION" in st.zero else 1e-10
     ptol = st.tolerance("SYSTEM")[0] if "SYSTEM" in st.zero else 1e-10
-    res = prep.system.sweep({}, rates={}, steps=len(times), tol=tol, pivot_tol=ptol,
+    res = sweep(prep.system, {}, rates={}, steps=len(times), tol=tol, pivot_tol=ptol,
                             hold_free=True, start=cur)
     acc.take(res)
     return acc.solution(times[:res.nsteps], prep.system.nq, res.message)

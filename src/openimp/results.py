@@ -1,0 +1,349 @@
+"""Result containers of the analyses: one trajectory type for sweeps and time responses.
+
+A :class:`Trajectory` stores the joint variables of every solved step (and
+their rates when the analysis had them), the quality index, the rank and the
+free generalized coordinates; body postures, point positions and body rates
+are recomputed from them on demand by a *tracker* that the analysis hands
+over (:func:`openimp.kinematics.track.tracker`), and kept once computed.  This
+module imports no analysis: results sit at the top of the layers
+(DESIGN.md).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+
+from openimp.errors import InputError
+
+#: tracker(Q, QD, QDD, bodies, points) -> (T, p, V, A) in model units (see openimp.kinematics.track)
+Tracker = Callable[..., Any]
+
+
+def screw_to_operator(s: np.ndarray) -> np.ndarray:
+    """(..., 6) screws (v, w) to (..., 4, 4) operators [[skew(w), v], [0, 0]]."""
+    out = np.zeros((*s.shape[:-1], 4, 4))
+    v, w = s[..., :3], s[..., 3:]
+    out[..., 0, 1], out[..., 0, 2], out[..., 1, 2] = -w[..., 2], w[..., 1], -w[..., 0]
+    out[..., 1, 0], out[..., 2, 0], out[..., 2, 1] = w[..., 2], -w[..., 1], w[..., 0]
+    out[..., :3, 3] = v
+    return out
+
+
+class Trajectory:
+    """Postures (and rates) of a mechanism along the steps of a sweep or a time response.
+
+    All results are in model units (radians for angles).  ``system`` is the
+    compiled model; ``q`` (steps x nq) the joint variables in internal units;
+    ``fgc`` (steps x nq) bool, the free generalized coordinates chosen at
+    every step (not driven and not eliminated); ``sgc`` (nq,) bool, the
+    specified ones (driven or held); ``drivers`` the names of the driven
+    variables.
+    """
+
+    def __init__(
+        self, system: Any, q: np.ndarray, quality: np.ndarray, rank: np.ndarray,
+        fgc: np.ndarray, iterations: np.ndarray, drivers: list[str], message: str = "", *,
+        tracker: Tracker, sgc: np.ndarray | None = None,
+    ) -> None:
+        self.system = system
+        self._q = q  # internal units
+        self.quality = quality
+        self.rank = rank
+        self._fgc = fgc
+        self.iterations = iterations
+        self.drivers = drivers
+        self._sgc = np.zeros(system.nq, bool) if sgc is None else np.asarray(sgc, bool)
+        #: empty when every step was solved; otherwise why the analysis stopped
+        self.message = message
+        #: times of the steps (None for a sweep driven by values rather than by motions of time)
+        self.time: np.ndarray | None = None
+        #: rank and quality index at the start posture (the regular values)
+        self.rank_ref = 0
+        self.quality_ref = 0.0
+        self._qd: np.ndarray | None = None
+        self._qdd: np.ndarray | None = None
+        self.consistency: np.ndarray | None = None
+        self._tracker = tracker
+        self._bodies: dict[int, tuple[np.ndarray, np.ndarray | None, np.ndarray | None]] = {}
+        self._points: dict[int, np.ndarray] = {}
+
+    # ------------------------------------------------------------- building
+    def set_rates(self, qd: np.ndarray, qdd: np.ndarray, cons: np.ndarray) -> None:
+        """Attach joint velocities and accelerations (steps x nq, internal units) and the
+        consistency residual of the acceleration equations per step (8.45)."""
+        self._qd = qd
+        self._qdd = qdd
+        self.consistency = cons
+        self._bodies.clear()
+
+    @classmethod
+    def concatenate(cls, parts: Sequence[Trajectory], message: str = "") -> Trajectory:
+        """One trajectory of the steps of ``parts`` in order (same system and drivers)."""
+        if not parts:
+            raise ValueError("concatenate needs at least one part")
+        p0 = parts[0]
+
+        def cat(get: Callable[[Trajectory], Any]) -> Any:
+            return np.concatenate([get(p) for p in parts], axis=0)
+
+        out = cls(p0.system, cat(lambda p: p._q), cat(lambda p: p.quality),
+                  cat(lambda p: p.rank), cat(lambda p: p._fgc), cat(lambda p: p.iterations),
+                  p0.drivers, message, tracker=p0._tracker, sgc=p0._sgc)
+        out.rank_ref, out.quality_ref = p0.rank_ref, p0.quality_ref
+        if all(p._qd is not None for p in parts):
+            out.set_rates(cat(lambda p: p._qd), cat(lambda p: p._qdd),
+                          cat(lambda p: p.consistency))
+        if all(p.time is not None for p in parts):
+            out.time = cat(lambda p: p.time)
+        return out
+
+    def steps(self, k0: int, k1: int) -> Trajectory:
+        """The steps k0 to k1 - 1 as a trajectory of their own."""
+        sl = slice(k0, k1)
+        out = Trajectory(self.system, self._q[sl], self.quality[sl], self.rank[sl],
+                         self._fgc[sl], self.iterations[sl], self.drivers, self.message,
+                         tracker=self._tracker, sgc=self._sgc)
+        out.rank_ref, out.quality_ref = self.rank_ref, self.quality_ref
+        if self._qd is not None and self._qdd is not None and self.consistency is not None:
+            out.set_rates(self._qd[sl], self._qdd[sl], self.consistency[sl])
+        if self.time is not None:
+            out.time = self.time[sl]
+        for b, (T, V, A) in self._bodies.items():
+            out._bodies[b] = (T[sl], None if V is None else V[sl], None if A is None else A[sl])
+        for p, x in self._points.items():
+            out._points[p] = x[sl]
+        return out
+
+    # ----------------------------------------------------------------- sizes
+    @property
+    def nsteps(self) -> int:
+        """Number of solved steps."""
+        return int(self._q.shape[0])
+
+    def __len__(self) -> int:
+        return self.nsteps
+
+    @property
+    def complete(self) -> bool:
+        """True when every requested step was solved."""
+        return not self.message
+
+    # ------------------------------------------------------- joint variables
+    @property
+    def q(self) -> np.ndarray:
+        """All joint variables (steps x nq), model units."""
+        return self._q * self.system.var_scale
+
+    @property
+    def mobility(self) -> np.ndarray:
+        """Mobility f = n - rank(J) at every step (6.52)."""
+        return self.system.nq - self.rank
+
+    @property
+    def fgc(self) -> list[list[str]]:
+        """Names of the free generalized coordinates at every step: variables neither
+        driven nor eliminated (held free coordinates of a kinematic sweep among them).
+
+        Empty lists when every freedom is driven, as in a kinematic sweep of a
+        mechanism with as many drivers as its mobility: the generalized
+        coordinates are then the drivers (:attr:`sgc`).
+        """
+        names = self.system.var_names
+        return [[names[c] for c in np.flatnonzero(row)] for row in self._fgc]
+
+    @property
+    def sgc(self) -> list[str]:
+        """Names of the specified generalized coordinates: the drivers, then any free
+        coordinates held at their values."""
+        names = self.system.var_names
+        held = [names[c] for c in np.flatnonzero(self._sgc) if names[c] not in self.drivers]
+        return [*self.drivers, *held]
+
+    @property
+    def generalized(self) -> list[list[str]]:
+        """The generalized coordinates at every step (the independent variables the
+        elimination left): the specified ones (:attr:`sgc`) and the free ones (:attr:`fgc`)."""
+        s = self.sgc
+        return [s + [n for n in row if n not in s] for row in self.fgc]
+
+    def joint(self, name: str) -> np.ndarray:
+        """Variables of one joint (steps x nvar), model units."""
+        return self.q[:, self.system.joint_vars(name)]
+
+    def variable(self, key: Any) -> np.ndarray:
+        """One joint variable over the steps (key as in System.var_index)."""
+        return self.q[:, self.system.var_index(key)]
+
+    # ------------------------------------------------------------- rates
+    @property
+    def has_rates(self) -> bool:
+        """True when the analysis gave velocities and accelerations."""
+        return self._qd is not None
+
+    def _need_rates(self) -> tuple[np.ndarray, np.ndarray]:
+        if self._qd is None or self._qdd is None:
+            raise InputError(
+                "this sweep has no velocities: call sweep(system, drivers, rates=..., "
+                "accels=...) or sweep(system, motion=..., times=...)"
+            )
+        return self._qd, self._qdd
+
+    @property
+    def qd(self) -> np.ndarray:
+        """All joint velocities (steps x nq), model units per second."""
+        return self._need_rates()[0] * self.system.var_scale
+
+    @property
+    def qdd(self) -> np.ndarray:
+        """All joint accelerations (steps x nq), model units per second squared."""
+        return self._need_rates()[1] * self.system.var_scale
+
+    def joint_velocity(self, name: str) -> np.ndarray:
+        """Velocities of one joint's variables (steps x nvar)."""
+        return self.qd[:, self.system.joint_vars(name)]
+
+    def joint_acceleration(self, name: str) -> np.ndarray:
+        """Accelerations of one joint's variables (steps x nvar)."""
+        return self.qdd[:, self.system.joint_vars(name)]
+
+    @property
+    def singular(self) -> np.ndarray:
+        """Steps at a singular posture, where rates are not determined by the drivers.
+
+        A step is singular when the rank of the Jacobian is below the regular
+        rank (the largest seen at the start posture or along the sweep: an
+        extra instantaneous freedom appears, as at a dead centre), when the
+        quality index has fallen below ``1e-6`` of its regular value (rates
+        there are amplified a million-fold: a near-locking posture), or when
+        the acceleration equations are inconsistent there (8.45).  Rates at a
+        flagged step are not determined by the drivers: they may be huge (the
+        true rates diverge at a locking posture) or leave the extra freedom at
+        rest (a change point).
+        """
+        if self.nsteps == 0:
+            return np.zeros(0, bool)
+        rank_ref = max(self.rank_ref, int(self.rank.max()))
+        q_ref = max(self.quality_ref, float(self.quality.max()))
+        sing = (self.rank < rank_ref) | (self.quality < 1e-6 * q_ref)
+        if self.consistency is not None:
+            sing |= self.consistency > 1e-6
+        return sing
+
+    # ------------------------------------------------- bodies and points
+    def prefetch(self, bodies: Sequence[str] = (), points: Sequence[str] = ()) -> None:
+        """Compute (once) the postures and, with rates, the rates of these bodies and the
+        positions of these points in one pass over the steps."""
+        bi = [self.system.body_index(b) for b in bodies]
+        bi = [b for b in dict.fromkeys(bi) if b not in self._bodies]
+        pi = [self.system.point_index(p) for p in points]
+        pi = [p for p in dict.fromkeys(pi) if p not in self._points]
+        if not bi and not pi:
+            return
+        rates = self._qd is not None and bool(bi)
+        out = self._tracker(self._q, self._qd if rates else None,
+                            self._qdd if rates else None, bi, pi)
+        for k, b in enumerate(bi):
+            self._bodies[b] = (out.T[:, k], out.V[:, k] if rates else None,
+                               out.A[:, k] if rates else None)
+        for k, p in enumerate(pi):
+            self._points[p] = out.p[:, k]
+
+    def _body(self, body: str, rates: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        if rates:
+            self._need_rates()
+        b = self.system.body_index(body)
+        if b not in self._bodies or (rates and self._bodies[b][1] is None):
+            self._bodies.pop(b, None)
+            self.prefetch([body])
+        return self._bodies[b]  # type: ignore[return-value]
+
+    def posture(self, body: str) -> np.ndarray:
+        """Global posture T_0b of a body (steps x 4 x 4), model units."""
+        return self._body(body, False)[0].copy()
+
+    def point(self, name: str) -> np.ndarray:
+        """Global position of a point (steps x 3), model units."""
+        p = self.system.point_index(name)
+        if p not in self._points:
+            self.prefetch(points=[name])
+        return self._points[p].copy()
+
+    def velocity_screw(self, body: str) -> np.ndarray:
+        """Screw (v, w) of the velocity operator omega_b of a body (steps x 6): w the
+        angular velocity, v the velocity of the body point at the global origin."""
+        return self._body(body, True)[1].copy()
+
+    def acceleration_screw(self, body: str) -> np.ndarray:
+        """Screw of the acceleration operator alpha_b of a body (8.52) (steps x 6)."""
+        return self._body(body, True)[2].copy()
+
+    def velocity_operator(self, body: str) -> np.ndarray:
+        """The 4x4 velocity operator omega_b of book (7.22) (steps x 4 x 4)."""
+        return screw_to_operator(self._body(body, True)[1])
+
+    def acceleration_operator(self, body: str) -> np.ndarray:
+        """The 4x4 operator alpha_b of book (8.52) (steps x 4 x 4)."""
+        return screw_to_operator(self._body(body, True)[2])
+
+    def angular_velocity(self, body: str) -> np.ndarray:
+        """Angular velocity vector of a body, global components (steps x 3), rad/s."""
+        return self._body(body, True)[1][:, 3:].copy()
+
+    def angular_acceleration(self, body: str) -> np.ndarray:
+        """Angular acceleration vector of a body, global (steps x 3), rad/s^2."""
+        return self._body(body, True)[2][:, 3:].copy()
+
+    def _point_rates(self, r: np.ndarray, body: str) -> tuple[np.ndarray, np.ndarray]:
+        """Velocity (7.27) and acceleration (8.56) of points r (steps x 3) of a body."""
+        _, V, A = self._body(body, True)
+        v, w = V[:, :3], V[:, 3:]
+        av, aw = A[:, :3], A[:, 3:]
+        vel = v + np.cross(w, r)
+        acc = av + np.cross(aw, r) + np.cross(w, vel)
+        return vel, acc
+
+    def origin_velocity(self, body: str) -> np.ndarray:
+        """Velocity of the origin of a body's frame (steps x 3), global."""
+        return self._point_rates(self.posture(body)[:, :3, 3], body)[0]
+
+    def origin_acceleration(self, body: str) -> np.ndarray:
+        """Acceleration of the origin of a body's frame (steps x 3), global."""
+        return self._point_rates(self.posture(body)[:, :3, 3], body)[1]
+
+    def _point_body(self, name: str) -> str:
+        return self.system.bodies[int(self.system.K.ptbody[self.system.point_index(name)])]
+
+    def point_velocity(self, name: str) -> np.ndarray:
+        """Velocity of a point (steps x 3), global, model units per second (7.27)."""
+        return self._point_rates(self.point(name), self._point_body(name))[0]
+
+    def point_acceleration(self, name: str) -> np.ndarray:
+        """Acceleration of a point (steps x 3), global (8.56)."""
+        return self._point_rates(self.point(name), self._point_body(name))[1]
+
+    # ----------------------------------------------------------------- table
+    def to_table(self) -> dict[str, Any]:
+        """Columns: step (and time), joint variables (and their rates), quality, mobility."""
+        cols: dict[str, Any] = {"step": np.arange(self.nsteps)}
+        if self.time is not None:
+            cols["time"] = self.time
+        q = self.q
+        for c, n in enumerate(self.system.var_names):
+            cols[n] = q[:, c]
+        if self.has_rates:
+            qd, qdd = self.qd, self.qdd
+            for c, n in enumerate(self.system.var_names):
+                cols[n + "'"] = qd[:, c]
+                cols[n + "''"] = qdd[:, c]
+        cols["quality"] = self.quality
+        cols["mobility"] = self.mobility
+        return cols
+
+    def __repr__(self) -> str:
+        state = "complete" if self.complete else f"stopped: {self.message}"
+        rates = ", with rates" if self.has_rates else ""
+        gc = ", ".join(self.sgc) or "none"
+        return f"Trajectory({self.nsteps} steps{rates}, {state}; specified: {gc})"
