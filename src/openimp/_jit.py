@@ -134,6 +134,16 @@ def njit(*args: Any, **kwargs: Any) -> Any:
 prange = _numba.prange if JIT_ENABLED else range
 
 
+#: header entries per field of a packed buffer: offset, then up to four dimensions
+HEAD = 5
+
+
+def _field_py(buf: Any, H: Any, k: int, ndim: int) -> Any:
+    """Field ``k`` of a packed buffer: the view its header entries in ``H`` describe."""
+    o = int(H[HEAD * k])
+    return _view_py(buf, o, *(int(d) for d in H[HEAD * k + 1:HEAD * k + 1 + ndim]))
+
+
 def _view_py(buf: Any, o: int, *shape: int) -> Any:
     """``buf[o:o + prod(shape)].reshape(shape)``: a C-ordered view of a flat buffer."""
     n = 1
@@ -206,5 +216,59 @@ if JIT_ENABLED:
         rty = _view_type(buf, 4)
         return None if rty is None else (rty(buf, o, d0, d1, d2, d3), _view_codegen(rty))
 
+    def _field_codegen(rty: Any) -> Callable[..., Any]:
+        """Code of field ``k`` of a packed buffer: offset and dimensions read from H."""
+
+        def codegen(context: Any, builder: Any, sig: Any, args: Any) -> Any:
+            hty = sig.args[1]
+            H = make_array(hty)(context, builder, value=args[1])
+            k = context.cast(builder, args[2], sig.args[2], types.intp)
+            base = builder.mul(k, context.get_constant(types.intp, HEAD))
+
+            def head(i: int) -> Any:
+                idx = builder.add(base, context.get_constant(types.intp, i))
+                return builder.load(cgutils.gep_inbounds(builder, H.data, idx))
+
+            vargs = [args[0], head(0), *[head(1 + i) for i in range(rty.ndim)]]
+            vsig = rty(sig.args[0], types.int64, *[types.int64] * rty.ndim)
+            return _view_codegen(rty)(context, builder, vsig, vargs)
+
+        return codegen
+
+    def _field_typer(ndim: int) -> Callable[..., Any]:
+        def typer(typingctx: Any, buf: Any, H: Any, k: Any) -> Any:
+            rty = _view_type(buf, ndim)
+            if rty is None or not isinstance(H, types.Array) or H.dtype != types.int64:
+                return None
+            return rty(buf, H, k), _field_codegen(rty)
+
+        typer.__name__ = f"field{ndim}"
+        return typer
+
+    #: ``field1(buf, H, k)`` .. ``field4``: field k of a packed buffer as a 1- to 4-d view,
+    #: its offset and dimensions read from the header ``H`` (HEAD int64 entries per
+    #: field).  Emitted straight into the caller (no function of its own): the view
+    #: takes the caller's reference-counting mode, and a kernel that unpacks dozens of
+    #: fields costs no inlining passes.
+    field1: Callable[..., Any] = intrinsic(_field_typer(1))
+    field2: Callable[..., Any] = intrinsic(_field_typer(2))
+    field3: Callable[..., Any] = intrinsic(_field_typer(3))
+    field4: Callable[..., Any] = intrinsic(_field_typer(4))
 else:
     view1 = view2 = view3 = view4 = _view_py
+
+    def field1(buf: Any, H: Any, k: int) -> Any:
+        """Field k of a packed buffer as a 1-d view (plain Python)."""
+        return _field_py(buf, H, k, 1)
+
+    def field2(buf: Any, H: Any, k: int) -> Any:
+        """Field k of a packed buffer as a 2-d view (plain Python)."""
+        return _field_py(buf, H, k, 2)
+
+    def field3(buf: Any, H: Any, k: int) -> Any:
+        """Field k of a packed buffer as a 3-d view (plain Python)."""
+        return _field_py(buf, H, k, 3)
+
+    def field4(buf: Any, H: Any, k: int) -> Any:
+        """Field k of a packed buffer as a 4-d view (plain Python)."""
+        return _field_py(buf, H, k, 4)

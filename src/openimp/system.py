@@ -36,7 +36,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from openimp import topology as _topology
-from openimp._jit import njit, view1, view2, view3, view4
+from openimp._jit import HEAD, field1, field2, field3, field4, njit
 from openimp.errors import InputError
 from openimp.joints import MAXV, conformity
 from openimp.joints.codes import CLOSED_FORM
@@ -126,8 +126,6 @@ DATA_FIELDS: tuple[Field, ...] = (
 
 KWork = namedtuple("KWork", [f.name for f in DATA_FIELDS])  # type: ignore[misc]
 
-#: header entries per field in the int buffer: offset, then up to four dimensions
-HEAD = 5
 _DTYPES = {"i": np.int64, "f": np.float64, "b": np.bool_}
 _BUFFER = {"i": 0, "f": 1, "b": 2}
 
@@ -185,44 +183,42 @@ def views(table: tuple[Field, ...], P: tuple[np.ndarray, ...]) -> list[np.ndarra
     return out
 
 
-# one view per field: the header of field k gives its offset and dimensions
-@njit(inline="always")
-def _v1(buf: np.ndarray, H: np.ndarray, k: int) -> np.ndarray:
-    return view1(buf, H[HEAD * k], H[HEAD * k + 1])
-
-
-@njit(inline="always")
-def _v2(buf: np.ndarray, H: np.ndarray, k: int) -> np.ndarray:
-    return view2(buf, H[HEAD * k], H[HEAD * k + 1], H[HEAD * k + 2])
-
-
-@njit(inline="always")
-def _v3(buf: np.ndarray, H: np.ndarray, k: int) -> np.ndarray:
-    return view3(buf, H[HEAD * k], H[HEAD * k + 1], H[HEAD * k + 2], H[HEAD * k + 3])
-
-
-@njit(inline="always")
-def _v4(buf: np.ndarray, H: np.ndarray, k: int) -> np.ndarray:
-    return view4(buf, H[HEAD * k], H[HEAD * k + 1], H[HEAD * k + 2], H[HEAD * k + 3],
-                 H[HEAD * k + 4])
-
-
 @njit(inline="always")
 def model_views(KP: tuple) -> Any:
     """The :data:`MODEL_FIELDS` of a packed model ``KP = (I, F, B)`` as named views.
 
-    Inlined (numba IR) into each kernel, where the views take the kernel's
+    Inlined (numba IR) into each kernel; every view is emitted in place by a
+    field intrinsic (:func:`openimp._jit.field1`), so it takes the kernel's
     reference-counting mode and LLVM drops the ones the kernel does not
-    read.  The order and dimensions follow :data:`MODEL_FIELDS` (a test
+    read.  One line per field, in the order of :data:`MODEL_FIELDS` (a test
     checks every field against :func:`views`).
     """
     I, F, _ = KP
     return KModel(
-        _v1(I, I, 0), _v1(I, I, 1), _v1(I, I, 2), _v1(I, I, 3), _v1(I, I, 4), _v1(I, I, 5),
-        _v3(F, I, 6), _v3(F, I, 7), _v3(F, I, 8), _v3(F, I, 9), _v1(F, I, 10),
-        _v1(I, I, 11), _v1(I, I, 12), _v1(I, I, 13), _v1(I, I, 14), _v3(F, I, 15),
-        _v1(I, I, 16), _v2(I, I, 17), _v2(I, I, 18), _v1(I, I, 19), _v1(I, I, 20),
-        _v1(I, I, 21), _v2(F, I, 22), _v1(I, I, 23),
+        field1(I, I, 0),  # jcode
+        field1(I, I, 1),  # jnv
+        field1(I, I, 2),  # jq0
+        field1(I, I, 3),  # jc0
+        field1(I, I, 4),  # jb1
+        field1(I, I, 5),  # jb2
+        field3(F, I, 6),  # S1
+        field3(F, I, 7),  # S2
+        field3(F, I, 8),  # S1inv
+        field3(F, I, 9),  # S2inv
+        field1(F, I, 10),  # const
+        field1(I, I, 11),  # order
+        field1(I, I, 12),  # pj
+        field1(I, I, 13),  # pb
+        field1(I, I, 14),  # psign
+        field3(F, I, 15),  # Tref
+        field1(I, I, 16),  # chord
+        field2(I, I, 17),  # L
+        field2(I, I, 18),  # P
+        field1(I, I, 19),  # er
+        field1(I, I, 20),  # vjoint
+        field1(I, I, 21),  # ptbody
+        field2(F, I, 22),  # ptlocal
+        field1(I, I, 23),  # gen
     )
 
 
@@ -232,12 +228,33 @@ def data_views(DP: tuple) -> Any:
     (see :func:`model_views`)."""
     I, F, B = DP
     return KWork(
-        _v3(F, I, 0), _v3(F, I, 1), _v3(F, I, 2), _v3(F, I, 3), _v4(F, I, 4), _v3(F, I, 5),
-        _v2(F, I, 6), _v3(F, I, 7), _v2(F, I, 8), _v1(F, I, 9), _v2(F, I, 10),
-        _v1(I, I, 11), _v1(I, I, 12), _v1(F, I, 13), _v2(F, I, 14), _v1(B, I, 15),
-        _v1(F, I, 16), _v1(F, I, 17), _v2(F, I, 18), _v2(F, I, 19), _v2(F, I, 20),
-        _v1(F, I, 21), _v1(B, I, 22), _v2(F, I, 23), _v2(F, I, 24), _v1(F, I, 25),
-        _v1(F, I, 26),
+        field3(F, I, 0),  # T0
+        field3(F, I, 1),  # A
+        field3(F, I, 2),  # Phi
+        field3(F, I, 3),  # Qj
+        field4(F, I, 4),  # dQj
+        field3(F, I, 5),  # M4
+        field2(F, I, 6),  # Dh
+        field3(F, I, 7),  # Bh
+        field2(F, I, 8),  # J
+        field1(F, I, 9),  # E
+        field2(F, I, 10),  # T
+        field1(I, I, 11),  # prow
+        field1(I, I, 12),  # pcol
+        field1(F, I, 13),  # pinv
+        field2(F, I, 14),  # mult
+        field1(B, I, 15),  # used
+        field1(F, I, 16),  # dq
+        field1(F, I, 17),  # rhs
+        field2(F, I, 18),  # V
+        field2(F, I, 19),  # Ab
+        field2(F, I, 20),  # Kh
+        field1(F, I, 21),  # qlast
+        field1(B, I, 22),  # isdriver
+        field2(F, I, 23),  # G
+        field2(F, I, 24),  # Gp
+        field1(F, I, 25),  # dprev
+        field1(F, I, 26),  # dnew
     )
 
 

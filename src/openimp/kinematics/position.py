@@ -22,7 +22,7 @@ import numpy as np
 
 from openimp._jit import njit
 from openimp.joints.calc import joint_calc
-from openimp.joints.codes import CYLINDER, PRISMATIC, REVOLUTE, RIGID
+from openimp.joints.codes import CYLINDER, PRISMATIC, REVOLUTE, RIGID, closed_form
 from openimp.mat4 import er_norm2, gen_inv4, inv4, mm4, similar_screw
 from openimp.system import data_views, model_views
 
@@ -30,7 +30,7 @@ from openimp.system import data_views, model_views
 @njit(nrt=False, forceinline=True)
 def right_phi(
     code: int, q: np.ndarray, a0: int, M: np.ndarray, im: int, W: np.ndarray, iw: int,
-    inverse: bool, Phi: np.ndarray, h: int, scr: np.ndarray,
+    inverse: bool, Phi: np.ndarray, h: int, scr: np.ndarray, gen: np.ndarray | None,
 ) -> None:
     """W[iw] = M[im] Phi_h(q) (or M[im] Phi_h^-1 with ``inverse``) for joint h of kind ``code``.
 
@@ -38,8 +38,9 @@ def right_phi(
     their Phi moves (two columns for a rotation about z, the last for a slide
     along z); the other kinds use ``Phi[h]`` from :func:`general_joints`.
     ``W`` and ``M`` must be different arrays; ``scr``: 4x4 scratch (index 7).
+    With ``gen`` None every joint has the closed form (the rest is not compiled).
     """
-    if code == REVOLUTE or code == PRISMATIC or code == CYLINDER or code == RIGID:
+    if gen is None or closed_form(code):
         th = 0.0
         d = 0.0
         if code == PRISMATIC:
@@ -121,17 +122,17 @@ def position(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, order: int)
                     T0[b, r, c] = K.Tref[b, r, c]
         elif K.psign[b] > 0:
             mm4(T0, K.jb1[h], K.S1, h, A, h)
-            right_phi(K.jcode[h], q, K.jq0[h], A, h, scr, 0, False, d.Phi, h, scr)
+            right_phi(K.jcode[h], q, K.jq0[h], A, h, scr, 0, False, d.Phi, h, scr, gen)
             mm4(scr, 0, K.S2inv, h, T0, b)
         else:
             mm4(T0, K.jb2[h], K.S2, h, scr, 0)
-            right_phi(K.jcode[h], q, K.jq0[h], scr, 0, A, h, True, d.Phi, h, scr)
+            right_phi(K.jcode[h], q, K.jq0[h], scr, 0, A, h, True, d.Phi, h, scr, gen)
             mm4(A, h, K.S1inv, h, T0, b)
     err = 0.0
     for i in range(K.chord.shape[0]):
         ch = K.chord[i]
         mm4(T0, K.jb1[ch], K.S1, ch, A, ch)
-        right_phi(K.jcode[ch], q, K.jq0[ch], A, ch, scr, 0, False, d.Phi, ch, scr)
+        right_phi(K.jcode[ch], q, K.jq0[ch], A, ch, scr, 0, False, d.Phi, ch, scr, gen)
         mm4(scr, 0, K.S2inv, ch, scr, 0)
         inv4(T0[K.jb2[ch]], scr[2])
         mm4(scr, 0, scr, 2, scr, 1)
