@@ -104,11 +104,16 @@ def _load(path: str) -> object | None:
     from openimp.imp.interp import load
 
     try:
-        return load(path)
+        deck = load(path)
     except InputError as exc:
+        for w in getattr(exc, "warnings", []):  # they may explain the errors
+            print(w, file=sys.stderr)
         for line in _errors(exc):
             print(line, file=sys.stderr)
         return None
+    for w in deck.warnings:
+        print(w, file=sys.stderr)
+    return deck
 
 
 def _cmd_check(args: argparse.Namespace) -> int:

@@ -1,0 +1,127 @@
+"""What a new user tripped over (issue 11, item 6).
+
+* Names that share their first four characters (all IMP reads) silently
+  became one element: a located warning names both spellings.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from openimp.imp.interp import DeckError, load
+
+DECKS = Path(__file__).parent / "decks"
+EXAMPLES = Path(__file__).parent.parent / "examples"
+FOURBAR_HEAD = (DECKS / "run_fourbar.imp").read_text().split("DATA POSITION")[0]
+HEAD_LINES = FOURBAR_HEAD.count("\n")
+
+#: run_fourbar.imp's four-bar with renamed links (lines 1-10 of every deck below)
+FOURBAR_LINKS = """TITLE = NAMES
+ZPIN ({base}, {crank}) = A
+ZPIN ({crank}, {coupler}) = B
+ZPIN ({coupler}, {rocker}) = C
+ZPIN ({rocker}, BASE) = D
+DATA ZPIN (A) = 0,0,0; 1,0,0; 1,0,0
+DATA ZPIN (B) = 1,0,0; 2,0,0; 3,3,0
+DATA ZPIN (C) = 3,3,0; 5,6,0; 4,0,0
+DATA ZPIN (D) = 4,0,0; 3,3,0; 5,0,0
+DATA POSITION (A) = 0, 30, 3
+"""
+
+
+def openimp(*args: str | Path) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, "-m", "openimp.cli", *map(str, args)],
+                          capture_output=True, text=True, timeout=600,
+                          env={**os.environ, "MPLBACKEND": "Agg"})
+
+
+def deck_file(tmp_path: Path, text: str, name: str = "deck.imp") -> Path:
+    p = tmp_path / name
+    p.write_text(text)
+    return p
+
+
+# =============================================================================
+# names that IMP reads as one
+# =============================================================================
+def test_links_sharing_four_characters_are_warned_about(tmp_path) -> None:
+    """CRANK1 and CRANK2 are one link for IMP (a triangle, not a four-bar): the
+    deck fails to assemble, and the warning that explains why comes first."""
+    p = deck_file(tmp_path, FOURBAR_LINKS.format(base="BASE", crank="CRANK1",
+                                                 coupler="COUPLER", rocker="CRANK2")
+                  + "EXECUTE\nEND\n")
+    with pytest.raises(DeckError) as ei:
+        load(p)
+    warns = ei.value.warnings
+    assert len(warns) == 1
+    w = warns[0]
+    assert w.where == (str(p), 4)  # ZPIN (COUPLER, CRANK2) = C
+    text = str(w)
+    assert text.startswith(f"{p}:4: warning: ")
+    assert "CRANK2" in text and "CRANK1" in text and f"{p}:2" in text and "CRAN" in text
+    assert "rename" in text
+    # on the command line the warning precedes the error it explains (exit 2)
+    r = openimp("check", p)
+    assert r.returncode == 2
+    lines = r.stderr.strip().splitlines()
+    assert lines[0] == text and "over-specified" in r.stderr
+
+
+def test_points_values_and_elements_sharing_four_characters(tmp_path) -> None:
+    body = FOURBAR_LINKS.format(base="BASE", crank="CRANK", coupler="COUPLER",
+                                rocker="ROCKER")
+    p = deck_file(tmp_path, body + """POINT (COUPLER) = TRACE1, TRACE2, CB, CB
+POINT (BASE) = QQ, QR
+VALUE (SPEED1) = 1
+VALUE (SPEED2) = 2
+SPRING (QQ, QR) = SPRINGA
+SPRING (QQ, QR) = SPRINGB
+LIST POSITION (D)
+EXECUTE
+END
+""")
+    deck = load(p)
+    got = [(w.where[1], str(w)) for w in deck.warnings]
+    assert [line for line, _ in got] == [11, 14, 16]
+    assert "point TRACE2 and point TRACE1 (the same statement)" in got[0][1]
+    assert f"VALUE SPEED2 and VALUE SPEED1 ({p}:13)" in got[1][1]
+    assert f"spring SPRINGB and spring SPRINGA ({p}:15)" in got[2][1]
+    # the run prints them where IMP prints its messages, located
+    echo: list[str] = []
+    deck.run(echo=echo.append)
+    assert f"*** {got[1][1]} ***" in echo
+
+
+def test_no_warning_for_abbreviations_repeats_and_distinct_names(tmp_path) -> None:
+    """COUP for COUPLER is an abbreviation; CB twice closes a polyline; a point
+    deleted and defined again is a new point; distinct names are distinct."""
+    body = FOURBAR_LINKS.format(base="BASE", crank="CRANK", coupler="COUPLER",
+                                rocker="ROCKER")
+    p = deck_file(tmp_path, body + """LINK (COUP)
+POINT (COUP) = CB, CP1, CB
+DELETE POINT (CP1)
+POINT (COUPLER) = CP2
+VALUE (SPEED) = 1
+VALUE (SPEE) = 2
+EXECUTE
+END
+""")
+    deck = load(p)
+    assert deck.warnings == []
+
+
+def test_a_link_spelled_like_base_is_the_fixed_link(tmp_path) -> None:
+    body = FOURBAR_LINKS.format(base="BASEPLATE", crank="CRANK", coupler="COUPLER",
+                                rocker="ROCKER")
+    deck = load(deck_file(tmp_path, body + "EXECUTE\nEND\n"))
+    assert len(deck.warnings) == 1
+    assert "link BASEPLATE is read as BASE, the fixed link" in str(deck.warnings[0])
+    assert deck.warnings[0].where[1] == 2
+    # named as the fixed link by GROUND, the same spelling is no surprise
+    deck = load(deck_file(tmp_path, "GROUND = BASEPLATE\n" + body + "EXECUTE\nEND\n", "g.imp"))
+    assert deck.warnings == []
