@@ -2,6 +2,9 @@
 
 * Names that share their first four characters (all IMP reads) silently
   became one element: a located warning names both spellings.
+* ``openimp check`` said OK for decks whose requests a run cannot answer: it
+  now lists, in the run's own words, what will not be produced, and exits as
+  the run does.
 """
 
 from __future__ import annotations
@@ -125,3 +128,53 @@ def test_a_link_spelled_like_base_is_the_fixed_link(tmp_path) -> None:
     # named as the fixed link by GROUND, the same spelling is no surprise
     deck = load(deck_file(tmp_path, "GROUND = BASEPLATE\n" + body + "EXECUTE\nEND\n", "g.imp"))
     assert deck.warnings == []
+
+
+# =============================================================================
+# openimp check says what a run will not produce
+# =============================================================================
+def test_check_lists_what_the_run_does_not_produce(tmp_path) -> None:
+    p = deck_file(tmp_path, FOURBAR_HEAD + """DATA POSITION (A) = 0, 30, 2
+LIST POSITION (D)
+LIST FORCE (A)
+PRINT FREQUENCY
+LIST DYNAMICS (0, 10, 1 / FORCE, A, 1) = POSITION, D
+EXECUTE
+DELETE INPUT ALL
+FIND EQUILIB
+EXECUTE
+LIST VELOCITY (D)
+END
+""")
+    n = HEAD_LINES
+    check = openimp("check", p)
+    run = openimp("run", p)
+    assert check.returncode == run.returncode == 1
+    assert "OK" not in check.stdout
+    assert "INCOMPLETE: 4 request(s) or run(s) will not be produced" in check.stdout
+    # the same messages, word for word, in the same order
+    missing = [ln for ln in check.stderr.splitlines() if not ln.startswith("openimp: note")]
+    ran = [ln for ln in run.stderr.splitlines() if not ln.startswith("openimp: note")]
+    assert missing == ran and len(missing) == 4
+    assert missing[0] == (f"openimp: run 1 (FOUR-BAR FOR TESTS): {p}:{n + 3}: LIST FORCE is "
+                          "not produced: force analysis is not built yet in openimp (the other "
+                          "requests are)")
+    assert f"{p}:{n + 4}: PRINT FREQUENCY is not produced" in missing[1]
+    assert f"{p}:{n + 5}: LIST DYNAMICS is not produced" in missing[2]
+    assert f"run 2 (FOUR-BAR FOR TESTS): {p}:{n + 9}: EXECUTE in static mode" in missing[3]
+    # a request after the last EXECUTE is produced by no run: both say so
+    late = (f"openimp: note: {p}:{n + 10}: LIST VELOCITY comes after the last EXECUTE "
+            f"({p}:{n + 9}), so no run produces it")
+    assert any(ln.startswith(late) for ln in check.stderr.splitlines())
+    assert any(ln.startswith(late) for ln in run.stderr.splitlines())
+
+
+def test_check_ok_when_everything_is_produced(tmp_path) -> None:
+    p = openimp("check", EXAMPLES / "hooke.imp")
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.splitlines()[0].endswith(": OK")
+    assert "openimp run --out DIR" in p.stderr  # its PLOT and ANIMATE need --out
+    p = deck_file(tmp_path, FOURBAR_HEAD + "LIST POSITION (D)\nEND\n")
+    r = openimp("check", p)
+    assert r.returncode == 0
+    assert "no EXECUTE statement" in r.stderr and "LIST POSITION is not produced" in r.stderr

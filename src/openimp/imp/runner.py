@@ -52,7 +52,8 @@ from openimp.imp.interp import (
 )
 from openimp.imp.jointmap import ImpJoint, imp_variables, to_degrees
 
-__all__ = ["Prepared", "Solution", "execute_run", "run_deck", "validate"]
+__all__ = ["Prepared", "Solution", "execute_run", "not_produced", "run_deck",
+           "trailing_requests", "validate"]
 
 #: steps solved per call of the sweep (progress is reported between chunks)
 CHUNK = 2000
@@ -216,6 +217,55 @@ def validate(spec: RunSpec) -> Prepared:
     prep = Prepared(spec, built, system, drivers, items, unsupported)
     spec._prepared = prep  # type: ignore[attr-defined]
     return prep
+
+
+def not_produced(spec: RunSpec) -> tuple[str | None, list[str]]:
+    """What one EXECUTE will not produce, found before anything is solved.
+
+    Returns the reason why the whole run produces nothing (an EXECUTE in a mode
+    openimp has not built), or None, and one located message per request that
+    the run cannot answer (FORCE, FREQUENCY, DYNAMICS).  The run reports
+    exactly these (``Run.failure``, ``Run.unsupported``) and ``openimp check``
+    lists them, so the two never disagree.  Raises :class:`InputError` as
+    :func:`validate` does.
+    """
+    state = spec.state
+    if spec.mode != "kinematic":
+        fw = state.find_where
+        what = "static equilibrium" if spec.mode == "static" else "dynamic (time response)"
+        return (f"{spec.where[0]}:{spec.where[1]}: EXECUTE in {spec.mode} mode "
+                f"(FIND {state.find}" + (f" at {fw[0]}:{fw[1]}" if fw else "")
+                + f"): {what} analysis is not built yet in openimp; this run "
+                "produces no results"), []
+    texts = []
+    for req in validate(spec).unsupported:
+        texts.append(f"{req.where[0]}:{req.where[1]}: {req.keyword} is not produced: "
+                     + ("force analysis" if req.quantity == "FORCE" else
+                        "linearized vibration analysis" if req.quantity == "FREQUENCY" else
+                        "transfer-function analysis")
+                     + " is not built yet in openimp (the other requests are)")
+    return None, texts
+
+
+def trailing_requests(deck: Any) -> list[str]:
+    """Requests that no EXECUTE runs: those given after the last EXECUTE (or in a
+    deck without one), one located message each."""
+    final = deck.interp.state.requests
+    specs = deck.specs
+    ran = {id(r.statement) for r in specs[-1].state.requests} if specs else set()
+    out = []
+    for req in final:
+        if id(req.statement) in ran:
+            continue
+        if specs:
+            w = specs[-1].where
+            out.append(f"{req.where[0]}:{req.where[1]}: {req.keyword} comes after the last "
+                       f"EXECUTE ({w[0]}:{w[1]}), so no run produces it; move it before an "
+                       "EXECUTE or add an EXECUTE after it")
+        else:
+            out.append(f"{req.where[0]}:{req.where[1]}: {req.keyword} is not produced: the "
+                       "deck has no EXECUTE statement; add EXECUTE after the requests")
+    return out
 
 
 # =============================================================================
@@ -906,13 +956,9 @@ def execute_run(spec: RunSpec, ctx: Context) -> io.Run:
     when = _time.strftime("%m/%d/%Y at %H:%M:%S")
     for line in io.banner(run.title, spec.mode.capitalize(), when).splitlines():
         ctx.say(line)
-    if spec.mode != "kinematic":
-        fw = state.find_where
-        what = "static equilibrium" if spec.mode == "static" else "dynamic (time response)"
-        run.failure = (f"{spec.where[0]}:{spec.where[1]}: EXECUTE in {spec.mode} mode "
-                       f"(FIND {state.find}" + (f" at {fw[0]}:{fw[1]}" if fw else "")
-                       + f"): {what} analysis is not built yet in openimp; this run "
-                       "produced no results")
+    failure, unsupported = not_produced(spec)
+    if failure is not None:
+        run.failure = failure
         ctx.say(f"*** {run.failure} ***")
         return run
     prep = validate(spec)
@@ -923,12 +969,7 @@ def execute_run(spec: RunSpec, ctx: Context) -> io.Run:
     if assumed:
         run.messages.append(assumed)
         ctx.say(f"*** {assumed} ***")
-    for req in prep.unsupported:
-        text = (f"{req.where[0]}:{req.where[1]}: {req.keyword} is not produced: "
-                + ("force analysis" if req.quantity == "FORCE" else
-                   "linearized vibration analysis" if req.quantity == "FREQUENCY" else
-                   "transfer-function analysis")
-                + " is not built yet in openimp (the other requests are)")
+    for text in unsupported:
         run.unsupported.append(text)
         ctx.say(f"*** {text} ***")
     start = None
@@ -1149,6 +1190,8 @@ def run_deck(deck: Any, out_dir: str | os.PathLike[str] | None = None,
         elif kind == "store_input":
             name, lines = payload
             ctx.files[name] = "\n".join([*lines, "RETURN"]) + "\n"
+    for text in trailing_requests(deck):
+        ctx.notes(text)
     base = out if out is not None else Path.cwd()
     store = io.format_store(runs)
     if store:
