@@ -5,15 +5,20 @@
 * ``openimp check`` said OK for decks whose requests a run cannot answer: it
   now lists, in the run's own words, what will not be produced, and exits as
   the run does.
+* In decks driven by DATA POSITION without DATA TIME, the first column was
+  called ``Time`` (s) although it is the step number: it is ``Step``, and
+  PLOT draws against the input's value.
 """
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from openimp.imp.interp import DeckError, load
@@ -178,3 +183,63 @@ def test_check_ok_when_everything_is_produced(tmp_path) -> None:
     r = openimp("check", p)
     assert r.returncode == 0
     assert "no EXECUTE statement" in r.stderr and "LIST POSITION is not produced" in r.stderr
+
+
+# =============================================================================
+# DATA POSITION without DATA TIME: steps, not seconds
+# =============================================================================
+def test_stepped_runs_label_the_step_and_plot_against_the_input(tmp_path, monkeypatch) -> None:
+    import openimp.viz as viz
+
+    drawn: list = []
+    monkeypatch.setattr(viz, "plot_png", lambda t, path, columns=None, x=0: drawn.append((t, x)))
+    deck = load(EXAMPLES / "fourbar.imp")  # DATA POSITION (A) = 0, 15, 24, no DATA TIME
+    echo: list[str] = []
+    run = deck.run(out_dir=tmp_path, echo=echo.append)[0]
+    t = run.table("LIST POSITION", "joint D")
+    assert t.columns == ["Step", "JVar 1"] and t.units == ["", "deg"]
+    np.testing.assert_array_equal(t.rows[:, 0], np.arange(25))
+    i = echo.index("Listing of position of joint D")
+    assert echo[i + 1].split() == ["Step", "JVar", "1", "(deg)"]
+    assert echo[i + 3].split()[0] == "1"
+    # PLOT POSITION (D): the table carries the crank angle, and it is the abscissa
+    (pt, x), = drawn
+    assert pt.columns == ["Step", "A 1", "JVar 1"] and pt.units == ["", "deg", "deg"]
+    assert x == 1
+    np.testing.assert_allclose(pt.rows[:, 1], 15.0 * np.arange(25), atol=1e-9)
+    np.testing.assert_allclose(pt.rows[:, 2], t.rows[:, 1])
+    fig = viz._plot_figure(pt, None, x)
+    assert fig.axes[0].get_xlabel() == "A 1 (deg)"
+    np.testing.assert_allclose(fig.axes[0].lines[0].get_xydata(), pt.rows[:, 1:])
+    # JSON keeps the same columns
+    path = tmp_path / "o.json"
+    from openimp import io
+
+    io.write_json(path, [run])
+    tables = json.loads(path.read_text())["runs"][0]["tables"]
+    assert tables[0]["columns"][0] == "Step" and tables[0]["units"][0] == ""
+
+
+def test_runs_with_data_time_keep_time_in_seconds(tmp_path, monkeypatch) -> None:
+    import openimp.viz as viz
+
+    drawn: list = []
+    monkeypatch.setattr(viz, "plot_png", lambda t, path, columns=None, x=0: drawn.append((t, x)))
+    run = load(EXAMPLES / "hooke.imp").run(out_dir=tmp_path)[0]
+    t = run.table("LIST POSITION", "joint JOUT")
+    assert t.columns[0] == "Time" and t.units[0] == "s"
+    assert t.rows[-1, 0] == pytest.approx(1.0)
+    (pt, x), = drawn
+    assert pt.columns == ["Time", "JVar 1"] and x == 0
+
+
+def test_print_output_numbers_the_steps(tmp_path) -> None:
+    p = deck_file(tmp_path, FOURBAR_HEAD + "DATA POSITION (A) = 0, 30, 2\nPRINT POSITION (D)\n"
+                  "EXECUTE\nDATA TIME = 0.2, 0, 0.1\nEXECUTE\nEND\n")
+    echo: list[str] = []
+    runs = load(p).run(echo=echo.append)
+    assert [ln for ln in echo if ln.startswith(("step =", "time ="))] == [
+        "step = 0", "step = 1", "step = 2", "time = 0.000000", "time = 0.100000",
+        "time = 0.200000"]
+    assert runs[0].table("PRINT POSITION", "joint D").columns[0] == "Step"
+    assert runs[1].table("PRINT POSITION", "joint D").columns[0] == "Time"

@@ -278,7 +278,7 @@ def test_slider_crank(tmp_path) -> None:
     # PRINT HEADING / PRINT POSITION text per position (reference 2.4)
     assert "The Generalized Coordinates are:" in echo
     assert "A 1 user 10.0000 188.500 -30.000" in echo
-    k = echo.index("time = 1.000000")
+    k = echo.index("step = 1")  # no DATA TIME: PRINT numbers the steps
     block = echo[k:k + 12]
     assert any(line.startswith("Degree of freedom = 1. Quality index = ") for line in block)
     assert "Joint A 10.0000 0.0000 0.0000 0.0000" in block
@@ -286,7 +286,7 @@ def test_slider_crank(tmp_path) -> None:
     assert float(pc[3]) == pytest.approx(sc_x(math.radians(10)), abs=5e-5)
     # PRINT tables are in the run too (full precision for --json)
     t = run.table("PRINT POSITION", "point PC")
-    assert t.columns == ["Time", "Magnitude", "X", "Y", "Z"]
+    assert t.columns == ["Step", "Magnitude", "X", "Y", "Z"]
     # STORE writes its file in the output directory
     store = (tmp_path / "run_slidercrank_store.txt").read_text()
     assert "# STORE POSITION joint D" in store
@@ -466,7 +466,7 @@ def test_gear_train() -> None:
     check_table(run, echo, "LIST VELOCITY", "joint C", np.full((37, 1), 4.25))
     # IMP's GEAR has one variable: the angle from u to the line of centres
     t = run.table("LIST POSITION", "joint M12")
-    assert t.columns == ["Time", "JVar 1"]
+    assert t.columns == ["Step", "JVar 1"]
     assert np.allclose(t.rows[:, 1], -a, atol=1e-7)
 
 

@@ -346,6 +346,24 @@ class _Accumulator:
 # =============================================================================
 # Time grid and input motions
 # =============================================================================
+def stepped(state: State) -> bool:
+    """True when no DATA TIME gives real times: IMP's assumed time is the step
+    number (counted on after EXECUTE HOLD, back to 0 at RESET), so tables are
+    labelled ``Step``; the rates stay per second."""
+    return state.time is None
+
+
+def plot_driver(prep: Prepared) -> Driver | None:
+    """The input that PLOT draws against in a stepped run: the first DATA
+    POSITION input that moves (None: the step is the abscissa)."""
+    if not stepped(prep.spec.state):
+        return None
+    for d in prep.drivers:
+        if d.inp.kind == "POSITION" and d.inp.increment != 0 and d.inp.nsteps > 0:
+            return d
+    return None
+
+
 def time_grid(state: State, t0: float) -> tuple[np.ndarray, str | None]:
     """Output times of a run, and IMP's message when DATA TIME is assumed."""
     if state.time is not None:
@@ -737,6 +755,14 @@ def make_table(prep: Prepared, sol: Solution, it: Item, notes: list[str]) -> io.
     cols: list[str] = ["Time"]
     units: list[str] = ["s"]
     data: list[np.ndarray] = [t]
+    if stepped(prep.spec.state):  # IMP's assumed time: the step number (goes on after HOLD)
+        cols, units = ["Step"], [""]
+        d = plot_driver(prep) if fam == "PLOT" else None
+        if d is not None:  # the abscissa of the plot: the input's value
+            pos = _joint_vars(prep, sol, d.joint)[1][:, d.var]
+            cols.append(f"{d.joint} {d.var + 1}")
+            units.append(_ANG_UNITS["POSITION"] if d.kind == "angle" else _LEN)
+            data.append(np.degrees(pos) if d.kind == "angle" else pos)
     if it.kind == "heading":
         cols += ["DOF", "Quality index", "Iterations"]
         units += ["", "", ""]
@@ -998,7 +1024,8 @@ def execute_run(spec: RunSpec, ctx: Context) -> io.Run:
     print_items = [it for it in prep.items if it.request.family == "PRINT"]
     if print_items:
         for k in range(sol.n):
-            ctx.say(f"time = {sol.times[k]:.6f}")
+            ctx.say(f"step = {io.step_text(sol.times[k])}" if stepped(state)
+                    else f"time = {sol.times[k]:.6f}")
             for line in print_step(prep, sol, k, tables, print_items):
                 ctx.say(line)
     for note in notes:
@@ -1050,8 +1077,8 @@ def _scene(prep: Prepared, sol: Solution, steps: slice, title: str) -> Any:
         if length:
             axes.append((j, _joint_frames(prep, sol, j)[steps], float(length)))
     view = g.view
-    return Scene(links=links, colors=colors, view=view, axes=axes,
-                 times=np.asarray(sol.times[steps]), title=title)
+    times = None if stepped(st) else np.asarray(sol.times[steps])  # None: "step k / n"
+    return Scene(links=links, colors=colors, view=view, axes=axes, times=times, title=title)
 
 
 def _graphics(prep: Prepared, sol: Solution, run: io.Run, ctx: Context) -> None:
@@ -1076,7 +1103,7 @@ def _graphics(prep: Prepared, sol: Solution, run: io.Run, ctx: Context) -> None:
             viz.animate_html(scene, str(out / f"run{k}_animation.html"))
         for t in plots:
             name = f"run{k}_plot_{io._slug(t.request.split()[-1])}_{io._slug(t.item)}.png"
-            viz.plot_png(t, str(out / name))
+            viz.plot_png(t, str(out / name), x=1 if plot_driver(prep) is not None else 0)
     except Exception as exc:
         ctx.notes(f"run {k}: graphics failed ({type(exc).__name__}: {exc}); the numeric "
                   "results are not affected")
