@@ -10,7 +10,7 @@ distance (``DATA DRAW``).  From it:
 * :func:`animate_html` writes one self-contained HTML page (no network) with
   the projected polylines of every step, a play/pause button and a time slider;
 * :func:`plot_png` plots the columns of a result :class:`~openimp.io.Table`
-  against its first column (PLOT).
+  against one of its columns, the first (time or step) by default (PLOT).
 
 Screen coordinates are x to the right and y up.  The standard views map global
 X, Y, Z on the screen as the table of reference 8.7 says (FRONT: X right, Y up,
