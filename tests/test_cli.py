@@ -62,8 +62,9 @@ def test_run_fourbar_example_prints_listings(tmp_path) -> None:
     assert "Listing of position of joint D" in out
     lines = out.splitlines()
     i = lines.index("Listing of position of joint D")
-    assert lines[i + 1].split()[:3] == ["Time", "(s)", "JVar"]
-    assert lines[i + 2].split() == ["0.000000", "-108.435"]
+    # no DATA TIME: the first column is the step, not a time in seconds
+    assert lines[i + 1].split()[:3] == ["Step", "JVar", "1"]
+    assert lines[i + 2].split() == ["0", "-108.435"]
     # graphics were asked for but --out was not given: one note
     assert p.stderr.count("not rendered") == 1
 
@@ -81,15 +82,15 @@ def test_json_and_csv(tmp_path) -> None:
     assert run["title"] == "FOUR-BAR FOR TESTS" and run["mode"] == "kinematic"
     tables = {(t["request"], t["item"]): t for t in run["tables"]}
     t = tables[("LIST POSITION", "joint A")]
-    assert t["columns"] == ["Time", "JVar 1"] and t["units"] == ["s", "deg"]
+    assert t["columns"] == ["Step", "JVar 1"] and t["units"] == ["", "deg"]
     assert len(t["rows"]) == 25 and t["rows"][2] == [2.0, pytest.approx(30.0, abs=1e-9)]
-    assert tables[("LIST POSITION", "point CP")]["columns"] == ["Time", "X", "Y", "Z"]
+    assert tables[("LIST POSITION", "point CP")]["columns"] == ["Step", "X", "Y", "Z"]
     assert tables[("LIST VELOCITY", "link COUP")]["units"][1] == "rad/s"
     files = sorted(cs.glob("*.csv"))
     assert len(files) == len(run["tables"])
     f = cs / "run1_list_position_joint_a.csv"
     rows = list(csv.reader(f.open()))
-    assert rows[0] == ["Time [s]", "JVar 1 [deg]"]
+    assert rows[0] == ["Step", "JVar 1 [deg]"]
     assert float(rows[3][1]) == pytest.approx(30.0, abs=1e-9)
     assert len(rows) == 26
 

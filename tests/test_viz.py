@@ -294,6 +294,18 @@ def test_plot_png_labels(tmp_path: Path) -> None:
     assert Image.open(out).size == (800, 600)
 
 
+def test_plot_png_abscissa(tmp_path: Path) -> None:
+    """``x`` picks the abscissa; by default it is left out of the ordinates."""
+    table = _table()
+    ax = plot_figure(table, None, "JVar 1").axes[0]
+    assert ax.get_xlabel() == "JVar 1 (deg)"
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == ["X (m)", "JVar 2 (deg)"]
+    np.testing.assert_allclose(ax.lines[1].get_xydata(), table.rows[:, [1, 3]])
+    assert plot_figure(table, ["X"], 3).axes[0].get_xlabel() == "JVar 2 (deg)"
+    with pytest.raises(InputError):
+        plot_png(table, tmp_path / "p.png", x="Nope")
+
+
 @pytest.mark.parametrize("columns", [["Nope"], [7], []])
 def test_plot_png_bad_columns(columns: list, tmp_path: Path) -> None:
     with pytest.raises(InputError):

@@ -10,6 +10,8 @@ compiled system as in Pinocchio and MuJoCo::
     ...
     system = openimp.compile(m)
     res = openimp.sweep(system, {"A": np.radians(np.arange(361))})
+
+(``docs/python.md`` goes on to a plot and an animation.)
 """
 
 from typing import Any

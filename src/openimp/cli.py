@@ -12,7 +12,9 @@ stdout; ``--json`` writes every table at full precision in the DESIGN.md
 schema, ``--csv`` one CSV file per table, ``--out`` receives STORE files,
 plots and animations (the current directory receives STORE files without
 it).  ``check`` parses the deck, builds and validates every model, and runs
-no analysis.
+no analysis; it lists on stderr, in the run's own words, every request or
+run that ``run`` would not produce, and then exits with status 1 as ``run``
+would.  Warnings about the deck (``file:line: warning: ...``) go to stderr.
 
 Exit status: 0 success; 2 input errors (each printed as ``file:line:
 message`` on stderr, and nothing is run); 1 an analysis failed or a request
@@ -28,7 +30,7 @@ import os
 import sys
 import time
 from collections.abc import Sequence
-from typing import TextIO
+from typing import Any, TextIO
 
 __all__ = ["main"]
 
@@ -104,31 +106,59 @@ def _load(path: str) -> object | None:
     from openimp.imp.interp import load
 
     try:
-        return load(path)
+        deck = load(path)
     except InputError as exc:
+        for w in getattr(exc, "warnings", []):  # they may explain the errors
+            print(w, file=sys.stderr)
         for line in _errors(exc):
             print(line, file=sys.stderr)
         return None
+    for w in deck.warnings:
+        print(w, file=sys.stderr)
+    return deck
 
 
 def _cmd_check(args: argparse.Namespace) -> int:
-    deck = _load(args.deck)
+    from openimp.imp.interp import DEFAULT_TITLE
+    from openimp.imp.runner import not_produced, trailing_requests, validate
+
+    deck: Any = _load(args.deck)
     if deck is None:
         return EXIT_INPUT
-    specs = deck.specs  # type: ignore[attr-defined]
-    print(f"{args.deck}: OK: {len(deck.statements)} statements, "  # type: ignore[attr-defined]
-          f"{len(specs)} EXECUTE statement(s)")
+    specs = deck.specs
+    lines: list[str] = []
+    missing: list[str] = []  # worded as `openimp run` words them on stderr
     for spec in specs:
-        from openimp.imp.runner import validate
-
         prep = validate(spec)
         m = prep.built.model
         s = prep.system
-        print(f"  run {spec.index} ({spec.mode}) at {spec.where[0]}:{spec.where[1]}: "
-              f"{len(m.bodies)} links, {len(m.joints)} joints, {len(m.points)} points, "
-              f"{s.nloops} loop(s), {len(prep.drivers)} input motion(s), "
-              f"{len(prep.items)} table(s)")
-    return EXIT_OK
+        failure, unsupported = not_produced(spec)
+        gaps = ([failure] if failure else []) + unsupported
+        title = spec.state.title or DEFAULT_TITLE
+        missing += [f"run {spec.index} ({title}): {text}" for text in gaps]
+        lines.append(f"  run {spec.index} ({spec.mode}) at {spec.where[0]}:{spec.where[1]}: "
+                     f"{len(m.bodies)} links, {len(m.joints)} joints, {len(m.points)} points, "
+                     f"{s.nloops} loop(s), {len(prep.drivers)} input motion(s), "
+                     f"{len(prep.items)} table(s)"
+                     + ("; produces nothing" if failure else
+                        f"; {len(unsupported)} request(s) not produced" if unsupported else ""))
+    notes = trailing_requests(deck)
+    if not specs:
+        notes.append("the deck has no EXECUTE statement: nothing would be run")
+    if deck.interp.state.graphics.used or any(sp.state.graphics.used for sp in specs):
+        notes.append("graphics statements (DRAW, ANIMATE, PLOT ...) are rendered only by "
+                     "openimp run --out DIR")
+    verdict = "OK" if not missing else \
+        f"INCOMPLETE: {len(missing)} request(s) or run(s) will not be produced (see stderr)"
+    print(f"{args.deck}: {len(deck.statements)} statements, {len(specs)} EXECUTE "
+          f"statement(s): {verdict}")
+    for line in lines:
+        print(line)
+    for text in missing:
+        print(f"openimp: {text}", file=sys.stderr)
+    for text in notes:
+        print(f"openimp: note: {text}", file=sys.stderr)
+    return EXIT_FAILURE if missing else EXIT_OK
 
 
 def _cmd_run(args: argparse.Namespace) -> int:

@@ -150,8 +150,8 @@ QUANTITY_WORDS = {"POSITION": "position", "VELOCITY": "velocity", "ACCEL": "acce
 def format_listing(t: Table) -> str:
     """IMP-style listing of a table: header, column titles, one row per step.
 
-    Time prints as %.6f and values as %.3f (IMP's LIST format, reference 2.3);
-    values IMP cannot determine print as ????.
+    Time prints as %.6f (a step number as an integer) and values as %.3f (IMP's
+    LIST format, reference 2.3); values IMP cannot determine print as ????.
     """
     quantity = t.request.split(maxsplit=1)[-1].upper()
     head = f"Listing of {QUANTITY_WORDS.get(quantity, quantity.lower())} of {t.item}"
@@ -165,6 +165,8 @@ def format_listing(t: Table) -> str:
         for j, v in enumerate(r):
             if not math.isfinite(v):
                 s = "????"
+            elif j == 0 and t.columns[0] == "Step":
+                s = step_text(v)
             elif j == 0 and t.columns[0].lower() in ("time", "step"):
                 s = f"{v:.6f}"
             else:
@@ -174,6 +176,11 @@ def format_listing(t: Table) -> str:
             cells.append(s.rjust(widths[j]))
         lines.append("".join(cells))
     return "\n".join(lines)
+
+
+def step_text(v: float) -> str:
+    """A step number as listings print it: an integer (``%.6f`` if it is not one)."""
+    return f"{v:.0f}" if v == round(v) else f"{v:.6f}"
 
 
 def format_store(runs: Sequence[Run]) -> str:

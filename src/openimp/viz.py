@@ -10,7 +10,7 @@ distance (``DATA DRAW``).  From it:
 * :func:`animate_html` writes one self-contained HTML page (no network) with
   the projected polylines of every step, a play/pause button and a time slider;
 * :func:`plot_png` plots the columns of a result :class:`~openimp.io.Table`
-  against its first column (PLOT).
+  against one of its columns, the first (time or step) by default (PLOT).
 
 Screen coordinates are x to the right and y up.  The standard views map global
 X, Y, Z on the screen as the table of reference 8.7 says (FRONT: X right, Y up,
@@ -809,18 +809,35 @@ def _col_label(name: str, unit: str) -> str:
     return f"{name} ({unit})" if unit else name
 
 
-def plot_png(table: Table, path: PathLike, columns: Sequence[str | int] | None = None) -> Path:
-    """Plot table columns against its first column to a PNG (IMP's PLOT).
+def plot_png(table: Table, path: PathLike, columns: Sequence[str | int] | None = None,
+             x: str | int = 0) -> Path:
+    """Plot table columns against one of its columns to a PNG (IMP's PLOT).
 
-    ``columns`` are names or indices (default: every column but the first).
-    Axis labels carry the units ("Time (s)", "JVar 1 (deg)"); the title is the
-    request and item of the table.
+    ``x`` names the abscissa (a column name or index; default the first column,
+    the time or the step); ``columns`` are the ordinates, names or indices
+    (default: every column but the first and the abscissa).  Axis labels carry
+    the units ("Time (s)", "JVar 1 (deg)"); the title is the request and item
+    of the table.
     """
-    fig = _plot_figure(table, columns)
+    fig = _plot_figure(table, columns, x)
     return _atomic(path, lambda tmp: fig.savefig(tmp, format="png", dpi=_PNG_DPI))
 
 
-def _plot_figure(table: Table, columns: Sequence[str | int] | None) -> Figure:
+def _column_index(table: Table, c: Any) -> int:
+    """The index of column ``c`` (a name or an index) of ``table``."""
+    cols = list(table.columns)
+    if isinstance(c, str):
+        if c not in cols:
+            raise InputError(f"table {table.request} {table.item}: no column {c!r}; "
+                             f"columns are {', '.join(cols)}")
+        return cols.index(c)
+    if isinstance(c, int | np.integer) and -len(cols) <= int(c) < len(cols):
+        return int(c) % len(cols)
+    raise InputError(f"table {table.request} {table.item}: bad column {c!r}")
+
+
+def _plot_figure(table: Table, columns: Sequence[str | int] | None,
+                 x: str | int = 0) -> Figure:
     """The matplotlib figure of :func:`plot_png` (validated; not yet saved)."""
     cols = list(table.columns)
     units = list(table.units) + [""] * max(0, len(cols) - len(table.units))
@@ -836,33 +853,23 @@ def _plot_figure(table: Table, columns: Sequence[str | int] | None) -> Figure:
                          f"expected (n, {len(cols)})")
     if rows.shape[0] == 0:
         raise InputError(f"table {table.request} {table.item}: has no rows to plot")
+    ix = _column_index(table, x)
     if columns is None:
-        chosen = list(range(1, len(cols)))
+        chosen = [j for j in range(1, len(cols)) if j != ix]
     else:
         if isinstance(columns, str | int):
             columns = [columns]
-        chosen = []
-        for c in columns:
-            if isinstance(c, str):
-                if c not in cols:
-                    raise InputError(f"table {table.request} {table.item}: no column {c!r}; "
-                                     f"columns are {', '.join(cols)}")
-                chosen.append(cols.index(c))
-            elif isinstance(c, int | np.integer) and -len(cols) <= int(c) < len(cols):
-                chosen.append(int(c) % len(cols))
-            else:
-                raise InputError(f"table {table.request} {table.item}: bad column {c!r}")
-        if not chosen:
-            raise InputError(f"table {table.request} {table.item}: no columns chosen to plot")
+        chosen = [_column_index(table, c) for c in columns]
+    if not chosen:
+        raise InputError(f"table {table.request} {table.item}: no columns chosen to plot")
 
     fig = Figure(figsize=_FIG_SIZE, dpi=_PNG_DPI, facecolor="white")
     FigureCanvasAgg(fig)
     ax = fig.add_subplot(1, 1, 1)
-    x = rows[:, 0]
     for j in chosen:
-        ax.plot(x, rows[:, j], lw=1.6, label=_col_label(cols[j], units[j]),
+        ax.plot(rows[:, ix], rows[:, j], lw=1.6, label=_col_label(cols[j], units[j]),
                 marker="o" if rows.shape[0] == 1 else None)
-    ax.set_xlabel(_col_label(cols[0], units[0]))
+    ax.set_xlabel(_col_label(cols[ix], units[ix]))
     if len(chosen) == 1:
         ax.set_ylabel(_col_label(cols[chosen[0]], units[chosen[0]]))
     else:

@@ -46,6 +46,7 @@ from openimp.system import compile_model
 __all__ = [
     "Deck",
     "DeckError",
+    "DeckWarning",
     "Interpreter",
     "JointDef",
     "LinkDef",
@@ -71,15 +72,29 @@ DEFAULT_TITLE = "JML Research, Inc."
 
 
 class DeckError(InputError):
-    """Input errors of a deck; ``errors`` lists every one (each with ``where``)."""
+    """Input errors of a deck; ``errors`` lists every one (each with ``where``);
+    ``warnings`` the deck's warnings (:class:`DeckWarning`), which may explain them."""
 
-    def __init__(self, errors: list[InputError]) -> None:
+    def __init__(self, errors: list[InputError], warnings: list[Any] | None = None) -> None:
         first = errors[0]
         super().__init__(str(first.args[0]) if first.args else str(first), first.where)
         self.errors = list(errors)
+        self.warnings = list(warnings or [])
 
     def __str__(self) -> str:
         return "\n".join(str(e) for e in self.errors)
+
+
+@dataclass(frozen=True)
+class DeckWarning:
+    """A warning about a statement that is carried out but probably not as meant."""
+
+    message: str
+    where: Where | None = None
+
+    def __str__(self) -> str:
+        loc = f"{self.where[0]}:{self.where[1]}: " if self.where is not None else ""
+        return f"{loc}warning: {self.message}"
 
 
 # =============================================================================
@@ -195,6 +210,8 @@ class State:
     graphics: Graphics = field(default_factory=Graphics)
     extras: dict[str, Any] = field(default_factory=dict)
     unit_mass: float = 0.0025901
+    #: (category, significant name) -> (the name as first written, where)
+    spelled: dict[tuple[str, str], tuple[str, Where]] = field(default_factory=dict)
 
     def snapshot(self) -> State:
         """A deep copy (VALUE expressions and statements are shared: they are immutable)."""
@@ -253,6 +270,8 @@ class Interpreter:
         self.base_dir = base_dir
         self.events: list[tuple[str, Any]] = []
         self.errors: list[InputError] = []
+        self.warnings: list[DeckWarning] = []
+        self._warned: set[tuple[str, str, str]] = set()
         self.runs: list[RunSpec] = []
         self.echo = False
         self.ended = False
@@ -268,6 +287,58 @@ class Interpreter:
     def msg(self, message: str) -> None:
         """Print an IMP message ``*** message ***``."""
         self.text(f"*** {message} ***")
+
+    def warn(self, message: str, where: Where | None = None) -> None:
+        """A located warning: kept in :attr:`warnings` and printed as an IMP message."""
+        stmt = self._stmt
+        loc = where if where is not None else (stmt.where if stmt is not None else None)
+        w = DeckWarning(message, loc)
+        self.warnings.append(w)
+        self.msg(str(w))
+
+    def _written(self, first: int, last: int | None = None) -> list[tuple[str, str]]:
+        """(significant, written) forms of the current statement's names ``[first:last]``."""
+        stmt = self._stmt
+        if stmt is None:
+            return []
+        names = stmt.names[first:last]
+        written = stmt.written[first:last] if len(stmt.written) == len(stmt.names) else names
+        return list(zip(names, written))
+
+    def _spelling(self, category: str, defined: Iterable[tuple[str, str]],
+                  pool: Iterable[str]) -> None:
+        """Warn when a name defined now shares its significant (first four) characters
+        with another name of its ``category`` (``pool``: the names defined so far) but
+        is spelled otherwise: IMP reads both as one element.  ``defined`` holds the
+        (significant, written) forms.  A name written with four characters or fewer
+        is an abbreviation and never warned about; each spelling is warned about once.
+        """
+        stmt = self._stmt
+        if stmt is None:
+            return
+        existing = set(pool)
+        reg = self.state.spelled
+        for name, written in defined:
+            old = reg.get((category, name))
+            if old is None or name not in existing:
+                reg[(category, name)] = (written, stmt.where)
+                existing.add(name)
+                if (category == "link" and name == "BASE" and len(written) > 4
+                        and self.state.ground_where is None):
+                    self.warn(f"link {written} is read as BASE, the fixed link: IMP reads only "
+                              "the first four characters of a name; rename the link if it is "
+                              "meant to move")
+                continue
+            first, where = old
+            key = (category, first, written)
+            if first == written or len(first) <= 4 or len(written) <= 4 or key in self._warned:
+                continue
+            self._warned.add(key)
+            at = "the same statement" if where == stmt.where else f"{where[0]}:{where[1]}"
+            self.warn(f"{category} {written} and {category} {first} ({at}) share their first "
+                      f"four characters, {name}, and IMP reads only those: they are one "
+                      f"{category}; rename one of them so that the first four characters "
+                      "differ")
 
     def error(self, message: str, where: Where | None = None) -> InputError:
         """An InputError about the current statement."""
@@ -372,6 +443,8 @@ class Interpreter:
                              f"no '{ij.kind}' kind in this installation, so joint {name} cannot "
                              "be built")
         st = self.state
+        self._spelling("link", self._written(0, 2), st.links)
+        self._spelling("joint", self._written(2, 3), st.joints)
         if name in st.joints:
             self.msg(f"Joint {name} is redefined; the old joint and its data are deleted.")
             self._delete_joint(name)
@@ -382,6 +455,7 @@ class Interpreter:
 
     def _def_link(self, stmt: Statement) -> None:
         name = stmt.fields["link"]
+        self._spelling("link", self._written(0, 1), self.state.links)
         if name in self.state.links:
             self.msg(f"Link {name} is already defined; this LINK statement is ignored.")
             return
@@ -398,6 +472,7 @@ class Interpreter:
             self.base_dir, name)
         if not os.path.isfile(path):
             raise self.error(f"the solid file '{path}' does not exist")
+        self._spelling("solid", self._written(0, 1), self.state.extras.get("solids", {}))
         self.state.extras.setdefault("solids", {})[stmt.fields["solid"]] = {
             "file": path, "where": stmt.where}
         self.text(f"Solid '{stmt.fields['solid']}' was read from file.")
@@ -420,6 +495,7 @@ class Interpreter:
         if f["solid1"] == f["solid2"]:
             raise self.error("a contact needs two different solids")
         contacts = self.state.extras.setdefault("contacts", {})
+        self._spelling("contact", self._written(2, 3), contacts)
         if f["contact"] in contacts:
             self.msg(f"Contact {f['contact']} is redefined.")
         contacts[f["contact"]] = {"solids": (f["solid1"], f["solid2"]), "where": stmt.where}
@@ -433,6 +509,7 @@ class Interpreter:
         link = stmt.fields["link"]
         self._link(link)
         names = stmt.fields["points"]
+        self._spelling("point", self._written(1), self.state.points)
         for n in names:
             if n not in self.state.points:
                 self.state.points[n] = PointDef(n, link, stmt.where)
@@ -446,6 +523,7 @@ class Interpreter:
         name = stmt.fields["name"]
         label = {"springs": "Spring", "dampers": "Damper", "forces": "Force",
                  "torques": "Torque"}[kind]
+        self._spelling(label.lower(), self._written(-1), store)
         if name in store:
             self.msg(f"{label} {name} is redefined.")
         store[name] = {"points": list(points), "where": stmt.where, "data": None,
@@ -478,6 +556,7 @@ class Interpreter:
 
     def _value(self, stmt: Statement) -> None:
         name = stmt.fields["name"]
+        self._spelling("VALUE", self._written(0, 1), self.state.values)
         if name in self.state.values:
             self.msg(f"VALUE {name} is redefined.")
         self.state.values[name] = stmt.fields["expression"]
@@ -1213,6 +1292,8 @@ class Deck:
         self.statements: list[Statement] = interp.statements
         self.events = interp.events
         self.specs: list[RunSpec] = interp.runs
+        #: warnings about statements carried out but probably not as meant
+        self.warnings: list[DeckWarning] = interp.warnings
         first = interp.runs[0] if interp.runs else None
         self._state = first.state if first is not None else interp.state
         self._where = first.where if first is not None else (path, len(self.statements) and
@@ -1301,7 +1382,7 @@ def load(path: str | os.PathLike[str], check: bool = True) -> Deck:
     errors.extend(interp.errors)
     errors.sort(key=lambda e: (e.where or ("", 0))[1] if (e.where or ("",))[0] == p else 10**9)
     if errors:
-        raise DeckError(errors)
+        raise DeckError(errors, interp.warnings)
     deck = Deck(p, interp)
     if check:
         errs: list[InputError] = []
@@ -1309,5 +1390,5 @@ def load(path: str | os.PathLike[str], check: bool = True) -> Deck:
             if str(e) not in {str(x) for x in errs}:
                 errs.append(e)
         if errs:
-            raise DeckError(errs)
+            raise DeckError(errs, interp.warnings)
     return deck

@@ -311,6 +311,7 @@ class Statement:
         keyword: the normalised keyword, e.g. ``'ZPIN'``, ``'DATA LINK'``,
             ``'LIST POSITION'``, ``'ZERO POSITION'``, ``'EXECUTE HOLD'``.
         names: the user names in order of appearance (significant form).
+        written: the same names as the deck spells them (all their characters).
         numbers: the numbers in order of appearance, implied and filled zeros
             included.
         fields: the data under the reference's names (see :data:`FIELDS`).
@@ -323,6 +324,7 @@ class Statement:
     kind: str
     keyword: str
     names: list[str] = field(default_factory=list)
+    written: list[str] = field(default_factory=list)
     numbers: list[float] = field(default_factory=list)
     fields: dict[str, Any] = field(default_factory=dict)
     file: str = "<text>"
@@ -442,6 +444,7 @@ class _Cursor:
         self.take()
         name = self.ctx.sig(item.text)
         self.stmt.names.append(name)
+        self.stmt.written.append(item.text)
         return name
 
     def number(self, what: str, fill: bool = True) -> float:
@@ -972,6 +975,7 @@ def _value(ctx: _Ctx, sc: Scanner) -> None:
     expr = Expression(name, ctx.src.text[start:].strip(), root, ctx.src.file,
                       ctx.src.line_at(start), ctx.base_dir)
     ctx.stmt.names.append(name)
+    ctx.stmt.written.append(tok.text)
     ctx.stmt.fields.update(name=name, expression=expr, source=expr.source)
     words = 2 + _count_words(root)
     if words > MAX_WORDS:
@@ -1024,6 +1028,7 @@ def _build(src: SourceStatement, significant: int | None, base_dir: str | None) 
                 raise ctx.error("the solid name is missing after SOLID READ", first.line)
             f["solid"] = ctx.sig(solid.text)
             ctx.stmt.names.append(f["solid"])
+            ctx.stmt.written.append(solid.text)
             f["filename"] = _filename(sc.rest())
             if f["filename"] is None:
                 raise ctx.error("the file name is missing", first.line)

@@ -54,7 +54,8 @@ from openimp.imp.jointmap import ImpJoint, imp_variables, to_degrees
 from openimp.kinematics import check_drivers, free_coordinate, sweep
 from openimp.system import make_state
 
-__all__ = ["Prepared", "Solution", "execute_run", "run_deck", "validate"]
+__all__ = ["Prepared", "Solution", "execute_run", "not_produced", "run_deck",
+           "trailing_requests", "validate"]
 
 #: steps solved per call of the sweep (progress is reported between chunks)
 CHUNK = 2000
@@ -217,6 +218,55 @@ def validate(spec: RunSpec) -> Prepared:
     return prep
 
 
+def not_produced(spec: RunSpec) -> tuple[str | None, list[str]]:
+    """What one EXECUTE will not produce, found before anything is solved.
+
+    Returns the reason why the whole run produces nothing (an EXECUTE in a mode
+    openimp has not built), or None, and one located message per request that
+    the run cannot answer (FORCE, FREQUENCY, DYNAMICS).  The run reports
+    exactly these (``Run.failure``, ``Run.unsupported``) and ``openimp check``
+    lists them, so the two never disagree.  Raises :class:`InputError` as
+    :func:`validate` does.
+    """
+    state = spec.state
+    if spec.mode != "kinematic":
+        fw = state.find_where
+        what = "static equilibrium" if spec.mode == "static" else "dynamic (time response)"
+        return (f"{spec.where[0]}:{spec.where[1]}: EXECUTE in {spec.mode} mode "
+                f"(FIND {state.find}" + (f" at {fw[0]}:{fw[1]}" if fw else "")
+                + f"): {what} analysis is not built yet in openimp; this run "
+                "produces no results"), []
+    texts = []
+    for req in validate(spec).unsupported:
+        texts.append(f"{req.where[0]}:{req.where[1]}: {req.keyword} is not produced: "
+                     + ("force analysis" if req.quantity == "FORCE" else
+                        "linearized vibration analysis" if req.quantity == "FREQUENCY" else
+                        "transfer-function analysis")
+                     + " is not built yet in openimp (the other requests are)")
+    return None, texts
+
+
+def trailing_requests(deck: Any) -> list[str]:
+    """Requests that no EXECUTE runs: those given after the last EXECUTE (or in a
+    deck without one), one located message each."""
+    final = deck.interp.state.requests
+    specs = deck.specs
+    ran = {id(r.statement) for r in specs[-1].state.requests} if specs else set()
+    out = []
+    for req in final:
+        if id(req.statement) in ran:
+            continue
+        if specs:
+            w = specs[-1].where
+            out.append(f"{req.where[0]}:{req.where[1]}: {req.keyword} comes after the last "
+                       f"EXECUTE ({w[0]}:{w[1]}), so no run produces it; move it before an "
+                       "EXECUTE or add an EXECUTE after it")
+        else:
+            out.append(f"{req.where[0]}:{req.where[1]}: {req.keyword} is not produced: the "
+                       "deck has no EXECUTE statement; add EXECUTE after the requests")
+    return out
+
+
 # =============================================================================
 # Solution
 # =============================================================================
@@ -295,6 +345,24 @@ class _Accumulator:
 # =============================================================================
 # Time grid and input motions
 # =============================================================================
+def stepped(state: State) -> bool:
+    """True when no DATA TIME gives real times: IMP's assumed time is the step
+    number (counted on after EXECUTE HOLD, back to 0 at RESET), so tables are
+    labelled ``Step``; the rates stay per second."""
+    return state.time is None
+
+
+def plot_driver(prep: Prepared) -> Driver | None:
+    """The input that PLOT draws against in a stepped run: the first DATA
+    POSITION input that moves (None: the step is the abscissa)."""
+    if not stepped(prep.spec.state):
+        return None
+    for d in prep.drivers:
+        if d.inp.kind == "POSITION" and d.inp.increment != 0 and d.inp.nsteps > 0:
+            return d
+    return None
+
+
 def time_grid(state: State, t0: float) -> tuple[np.ndarray, str | None]:
     """Output times of a run, and IMP's message when DATA TIME is assumed."""
     if state.time is not None:
@@ -676,6 +744,14 @@ def make_table(prep: Prepared, sol: Solution, it: Item, notes: list[str]) -> io.
     cols: list[str] = ["Time"]
     units: list[str] = ["s"]
     data: list[np.ndarray] = [t]
+    if stepped(prep.spec.state):  # IMP's assumed time: the step number (goes on after HOLD)
+        cols, units = ["Step"], [""]
+        d = plot_driver(prep) if fam == "PLOT" else None
+        if d is not None:  # the abscissa of the plot: the input's value
+            pos = _joint_vars(prep, sol, d.joint)[1][:, d.var]
+            cols.append(f"{d.joint} {d.var + 1}")
+            units.append(_ANG_UNITS["POSITION"] if d.kind == "angle" else _LEN)
+            data.append(np.degrees(pos) if d.kind == "angle" else pos)
     if it.kind == "heading":
         cols += ["DOF", "Quality index", "Iterations"]
         units += ["", "", ""]
@@ -895,13 +971,9 @@ def execute_run(spec: RunSpec, ctx: Context) -> io.Run:
     when = _time.strftime("%m/%d/%Y at %H:%M:%S")
     for line in io.banner(run.title, spec.mode.capitalize(), when).splitlines():
         ctx.say(line)
-    if spec.mode != "kinematic":
-        fw = state.find_where
-        what = "static equilibrium" if spec.mode == "static" else "dynamic (time response)"
-        run.failure = (f"{spec.where[0]}:{spec.where[1]}: EXECUTE in {spec.mode} mode "
-                       f"(FIND {state.find}" + (f" at {fw[0]}:{fw[1]}" if fw else "")
-                       + f"): {what} analysis is not built yet in openimp; this run "
-                       "produced no results")
+    failure, unsupported = not_produced(spec)
+    if failure is not None:
+        run.failure = failure
         ctx.say(f"*** {run.failure} ***")
         return run
     prep = validate(spec)
@@ -912,12 +984,7 @@ def execute_run(spec: RunSpec, ctx: Context) -> io.Run:
     if assumed:
         run.messages.append(assumed)
         ctx.say(f"*** {assumed} ***")
-    for req in prep.unsupported:
-        text = (f"{req.where[0]}:{req.where[1]}: {req.keyword} is not produced: "
-                + ("force analysis" if req.quantity == "FORCE" else
-                   "linearized vibration analysis" if req.quantity == "FREQUENCY" else
-                   "transfer-function analysis")
-                + " is not built yet in openimp (the other requests are)")
+    for text in unsupported:
         run.unsupported.append(text)
         ctx.say(f"*** {text} ***")
     start = None
@@ -946,7 +1013,8 @@ def execute_run(spec: RunSpec, ctx: Context) -> io.Run:
     print_items = [it for it in prep.items if it.request.family == "PRINT"]
     if print_items:
         for k in range(sol.n):
-            ctx.say(f"time = {sol.times[k]:.6f}")
+            ctx.say(f"step = {io.step_text(sol.times[k])}" if stepped(state)
+                    else f"time = {sol.times[k]:.6f}")
             for line in print_step(prep, sol, k, tables, print_items):
                 ctx.say(line)
     for note in notes:
@@ -998,8 +1066,8 @@ def _scene(prep: Prepared, sol: Solution, steps: slice, title: str) -> Any:
         if length:
             axes.append((j, _joint_frames(prep, sol, j)[steps], float(length)))
     view = g.view
-    return Scene(links=links, colors=colors, view=view, axes=axes,
-                 times=np.asarray(sol.times[steps]), title=title)
+    times = None if stepped(st) else np.asarray(sol.times[steps])  # None: "step k / n"
+    return Scene(links=links, colors=colors, view=view, axes=axes, times=times, title=title)
 
 
 def _graphics(prep: Prepared, sol: Solution, run: io.Run, ctx: Context) -> None:
@@ -1024,7 +1092,7 @@ def _graphics(prep: Prepared, sol: Solution, run: io.Run, ctx: Context) -> None:
             viz.animate_html(scene, str(out / f"run{k}_animation.html"))
         for t in plots:
             name = f"run{k}_plot_{io._slug(t.request.split()[-1])}_{io._slug(t.item)}.png"
-            viz.plot_png(t, str(out / name))
+            viz.plot_png(t, str(out / name), x=1 if plot_driver(prep) is not None else 0)
     except Exception as exc:
         ctx.notes(f"run {k}: graphics failed ({type(exc).__name__}: {exc}); the numeric "
                   "results are not affected")
@@ -1138,6 +1206,8 @@ def run_deck(deck: Any, out_dir: str | os.PathLike[str] | None = None,
         elif kind == "store_input":
             name, lines = payload
             ctx.files[name] = "\n".join([*lines, "RETURN"]) + "\n"
+    for text in trailing_requests(deck):
+        ctx.notes(text)
     base = out if out is not None else Path.cwd()
     store = io.format_store(runs)
     if store:
