@@ -24,6 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from openimp import spatial as sp
 from openimp.errors import InputError
 from openimp.joints import CATALOGUE
 
@@ -251,63 +252,22 @@ def _cardan(R: np.ndarray) -> np.ndarray:
     return np.unwrap(out, axis=0) if len(out) > 1 else out
 
 
-def _er_matrix(e: np.ndarray) -> np.ndarray:
-    """Rotation matrices of Euler-Rodrigues parameters (e1, e2, e3 vector, e4 scalar)."""
-    n = np.linalg.norm(e, axis=1, keepdims=True)
-    e = e / np.where(n > 0, n, 1.0)
-    x, y, z, w = e[:, 0], e[:, 1], e[:, 2], e[:, 3]
-    R = np.empty((len(e), 3, 3))
-    R[:, 0, 0] = w * w + x * x - y * y - z * z
-    R[:, 0, 1] = 2 * (x * y - z * w)
-    R[:, 0, 2] = 2 * (x * z + y * w)
-    R[:, 1, 0] = 2 * (x * y + z * w)
-    R[:, 1, 1] = w * w - x * x + y * y - z * z
-    R[:, 1, 2] = 2 * (y * z - x * w)
-    R[:, 2, 0] = 2 * (x * z - y * w)
-    R[:, 2, 1] = 2 * (y * z + x * w)
-    R[:, 2, 2] = w * w - x * x - y * y + z * z
-    return R
-
-
-def _quat_vec(p: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Vector part of p (x) conj(q) for quaternions stored (x, y, z, w)."""
-    pv, pw = p[:, :3], p[:, 3:4]
-    qv, qw = q[:, :3], q[:, 3:4]
-    return pv * qw - pw * qv - np.cross(pv, qv)
-
-
-def _rx(a: np.ndarray) -> np.ndarray:
-    c, s = np.cos(a), np.sin(a)
-    R = np.zeros((len(a), 3, 3))
-    R[:, 0, 0] = 1
-    R[:, 1, 1], R[:, 1, 2], R[:, 2, 1], R[:, 2, 2] = c, -s, s, c
-    return R
-
-
-def _ry(b: np.ndarray) -> np.ndarray:
-    c, s = np.cos(b), np.sin(b)
-    R = np.zeros((len(b), 3, 3))
-    R[:, 1, 1] = 1
-    R[:, 0, 0], R[:, 0, 2], R[:, 2, 0], R[:, 2, 2] = c, s, -s, c
-    return R
-
-
 def _cardan_rates(e: np.ndarray, ed: np.ndarray | None, edd: np.ndarray | None
                   ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
     """Cardan angles of ER parameters and their first and second time derivatives."""
-    ang = _cardan(_er_matrix(e))
+    ang = _cardan(sp.er_to_rotation(e))
     if ed is None or edd is None:
         return ang, None, None
     # relative angular velocity / acceleration in the first frame:
     # omega = 2 vec(e' (x) e*), alpha = 2 vec(e'' (x) e*) (unit quaternion)
     n2 = np.sum(e * e, axis=1, keepdims=True)
-    omega = 2.0 * _quat_vec(ed, e) / n2
-    alpha = 2.0 * _quat_vec(edd, e) / n2
+    omega = 2.0 * sp.quat_multiply(ed, sp.quat_conjugate(e))[:, :3] / n2
+    alpha = 2.0 * sp.quat_multiply(edd, sp.quat_conjugate(e))[:, :3] / n2
     a, b = ang[:, 0], ang[:, 1]
-    Rx = _rx(a)
+    Rx = sp.rot_x(a)[:, :3, :3]
     e1 = np.broadcast_to(_X, (len(a), 3))
     e2 = Rx[:, :, 1]
-    e3 = np.einsum("sij,sj->si", Rx @ _ry(b), np.broadcast_to(_Z, (len(a), 3)))
+    e3 = np.einsum("sij,sj->si", Rx @ sp.rot_y(b)[:, :3, :3], np.broadcast_to(_Z, (len(a), 3)))
     E = np.stack([e1, e2, e3], axis=2)
     rate = np.linalg.solve(E, omega[..., None])[..., 0]
     ad, bd = rate[:, 0:1], rate[:, 1:2]

@@ -29,29 +29,32 @@ from openimp.system import data_views, model_views
 
 @njit(nrt=False, forceinline=True)
 def right_phi(
-    code: int, q: np.ndarray, a0: int, M: np.ndarray, im: int, W: np.ndarray, iw: int,
-    inverse: bool, Phi: np.ndarray, h: int, scr: np.ndarray, gen: np.ndarray | None,
+    K: tuple, d: tuple, gen: np.ndarray | None, q: np.ndarray, h: int, M: np.ndarray, im: int,
+    W: np.ndarray, iw: int, inverse: bool,
 ) -> None:
-    """W[iw] = M[im] Phi_h(q) (or M[im] Phi_h^-1 with ``inverse``) for joint h of kind ``code``.
+    """W[iw] = M[im] Phi_h(q) (or M[im] Phi_h^-1 with ``inverse``) for joint h.
 
-    Rigid, revolute, prismatic and cylindric joints touch only the columns
-    their Phi moves (two columns for a rotation about z, the last for a slide
-    along z); the other kinds use ``Phi[h]`` from :func:`general_joints`.
-    ``W`` and ``M`` must be different arrays; ``scr``: 4x4 scratch (index 7).
-    With ``gen`` None every joint has the closed form (the rest is not compiled).
+    K, d: the model and data views.  Rigid, revolute, prismatic and
+    cylindric joints touch only the columns their Phi moves (two columns
+    for a rotation about z, the last for a slide along z); the other kinds
+    use d.Phi[h] from :func:`general_joints`.  ``W`` and ``M`` must be
+    different arrays (scratch: d.M4[7]).  With ``gen`` None every joint has
+    the closed form (the rest is not compiled).
     """
+    code = K.jcode[h]
+    a0 = K.jq0[h]
     if gen is None or closed_form(code):
         th = 0.0
-        d = 0.0
+        sl = 0.0
         if code == PRISMATIC:
-            d = q[a0]
+            sl = q[a0]
         elif code != RIGID:
             th = q[a0]
             if code == CYLINDER:
-                d = q[a0 + 1]
-        if inverse:  # Rz(th) Tz(d) inverts to Rz(-th) Tz(-d): both act along z
+                sl = q[a0 + 1]
+        if inverse:  # Rz(th) Tz(s) inverts to Rz(-th) Tz(-s): both act along z
             th = -th
-            d = -d
+            sl = -sl
         ca = math.cos(th)
         sa = math.sin(th)
         for i in range(3):
@@ -61,16 +64,16 @@ def right_phi(
             W[iw, i, 0] = ca * m0 + sa * m1
             W[iw, i, 1] = ca * m1 - sa * m0
             W[iw, i, 2] = m2
-            W[iw, i, 3] = M[im, i, 3] + d * m2
+            W[iw, i, 3] = M[im, i, 3] + sl * m2
         W[iw, 3, 0] = 0.0
         W[iw, 3, 1] = 0.0
         W[iw, 3, 2] = 0.0
         W[iw, 3, 3] = 1.0
     elif inverse:
-        gen_inv4(Phi[h], scr[7])
-        mm4(M, im, scr, 7, W, iw)
+        gen_inv4(d.Phi[h], d.M4[7])
+        mm4(M, im, d.M4, 7, W, iw)
     else:
-        mm4(M, im, Phi, h, W, iw)
+        mm4(M, im, d.Phi, h, W, iw)
 
 
 @njit(nrt=False, inline="always")
@@ -122,17 +125,17 @@ def position(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, order: int)
                     T0[b, r, c] = K.Tref[b, r, c]
         elif K.psign[b] > 0:
             mm4(T0, K.jb1[h], K.S1, h, A, h)
-            right_phi(K.jcode[h], q, K.jq0[h], A, h, scr, 0, False, d.Phi, h, scr, gen)
+            right_phi(K, d, gen, q, h, A, h, scr, 0, False)
             mm4(scr, 0, K.S2inv, h, T0, b)
         else:
             mm4(T0, K.jb2[h], K.S2, h, scr, 0)
-            right_phi(K.jcode[h], q, K.jq0[h], scr, 0, A, h, True, d.Phi, h, scr, gen)
+            right_phi(K, d, gen, q, h, scr, 0, A, h, True)
             mm4(A, h, K.S1inv, h, T0, b)
     err = 0.0
     for i in range(K.chord.shape[0]):
         ch = K.chord[i]
         mm4(T0, K.jb1[ch], K.S1, ch, A, ch)
-        right_phi(K.jcode[ch], q, K.jq0[ch], A, ch, scr, 0, False, d.Phi, ch, scr, gen)
+        right_phi(K, d, gen, q, ch, A, ch, scr, 0, False)
         mm4(scr, 0, K.S2inv, ch, scr, 0)
         inv4(T0[K.jb2[ch]], scr[2])
         mm4(scr, 0, scr, 2, scr, 1)
