@@ -27,6 +27,7 @@ kinematic kernels keep their signatures and their cache.
 
 from __future__ import annotations
 
+import math
 from collections import namedtuple
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -134,52 +135,88 @@ def _dims(shape: tuple[str | int, ...], sizes: Mapping[str, int]) -> tuple[int, 
     return tuple(int(sizes[d]) if isinstance(d, str) else int(d) for d in shape)
 
 
+def _layout(table: tuple[Field, ...], shapes: list[tuple[int, ...]]
+            ) -> tuple[np.ndarray, list[int]]:
+    """The int buffer's header and the length of each buffer for fields of these shapes."""
+    head = np.zeros(HEAD * len(table), np.int64)
+    used = [head.size, 0, 0]
+    for k, (f, shape) in enumerate(zip(table, shapes, strict=True)):
+        if len(shape) != len(f.shape) or len(shape) > 4:
+            raise ValueError(f"field {f.name}: expected {len(f.shape)} dimensions, got {shape}")
+        b = _BUFFER[f.kind]
+        head[HEAD * k] = used[b]
+        head[HEAD * k + 1:HEAD * (k + 1)] = (*shape, *(1,) * (4 - len(shape)))
+        used[b] += math.prod(shape)
+    return head, used
+
+
 def pack(table: tuple[Field, ...], arrays: Mapping[str, np.ndarray]
          ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Pack the arrays of a field table into three flat buffers ``(I, F, B)``.
 
     ``I`` (int64) starts with a header: per field, its offset in its own
-    buffer and its dimensions (:data:`HEAD` entries); the int fields follow.
-    ``F`` holds the float64 fields, ``B`` the bool ones, each C-ordered.
-    :func:`views` (Python) and the compiled :func:`model_views` /
+    buffer and its dimensions (:data:`~openimp._jit.HEAD` entries); the int
+    fields follow.  ``F`` holds the float64 fields, ``B`` the bool ones, each
+    C-ordered.  :func:`views` (Python) and the compiled :func:`model_views` /
     :func:`data_views` rebuild the arrays as views of the buffers.
     """
-    head = np.zeros(HEAD * len(table), np.int64)
-    used = [head.size, 0, 0]
-    for k, f in enumerate(table):
-        a = np.asarray(arrays[f.name])
-        if a.ndim != len(f.shape) or a.ndim > 4:
-            raise ValueError(f"field {f.name}: expected {len(f.shape)} dimensions, got {a.shape}")
-        b = _BUFFER[f.kind]
-        head[HEAD * k] = used[b]
-        head[HEAD * k + 1:HEAD * k + 1 + a.ndim] = a.shape
-        head[HEAD * k + 1 + a.ndim:HEAD * (k + 1)] = 1
-        used[b] += a.size
+    arrs = [np.asarray(arrays[f.name]) for f in table]
+    head, used = _layout(table, [a.shape for a in arrs])
     bufs = [np.zeros(used[0], np.int64), np.zeros(used[1]), np.zeros(used[2], np.bool_)]
     bufs[0][:head.size] = head
-    for k, f in enumerate(table):
-        a = np.asarray(arrays[f.name])
+    for k, (f, a) in enumerate(zip(table, arrs, strict=True)):
         o = int(head[HEAD * k])
         bufs[_BUFFER[f.kind]][o:o + a.size] = a.reshape(-1)
     return bufs[0], bufs[1], bufs[2]
 
 
+_ZEROED: dict[tuple[int, tuple[tuple[str, int], ...]], tuple[np.ndarray, int, int]] = {}
+
+
 def allocate(table: tuple[Field, ...], sizes: Mapping[str, int]
              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Zeroed buffers of a field table for the given sizes (see :func:`pack`)."""
-    return pack(table, {f.name: np.zeros(_dims(f.shape, sizes), _DTYPES[f.kind])
-                        for f in table})
+    """Zeroed buffers of a field table for the given sizes (see :func:`pack`).
+
+    The layout is computed once per table and sizes (a sweep allocates its
+    data at every call).
+    """
+    key = (id(table), tuple(sizes.items()))
+    hit = _ZEROED.get(key)
+    if hit is None:
+        head, used = _layout(table, [_dims(f.shape, sizes) for f in table])
+        I = np.zeros(used[0], np.int64)
+        I[:head.size] = head
+        hit = _ZEROED[key] = (I, used[1], used[2])
+    I, nf, nb = hit
+    return I.copy(), np.zeros(nf), np.zeros(nb, np.bool_)
+
+
+def view(table: tuple[Field, ...], P: tuple[np.ndarray, ...], name: str) -> np.ndarray:
+    """One field of a field table as a numpy view of its packed buffers (Python side)."""
+    k = _index(table)[name]
+    f = table[k]
+    head = P[0][HEAD * k:HEAD * k + 1 + len(f.shape)].tolist()
+    return P[_BUFFER[f.kind]][head[0]:head[0] + math.prod(head[1:])].reshape(head[1:])
+
+
+_INDEX: dict[int, dict[str, int]] = {}
+
+
+def _index(table: tuple[Field, ...]) -> dict[str, int]:
+    idx = _INDEX.get(id(table))
+    if idx is None:
+        idx = _INDEX[id(table)] = {f.name: k for k, f in enumerate(table)}
+    return idx
 
 
 def views(table: tuple[Field, ...], P: tuple[np.ndarray, ...]) -> list[np.ndarray]:
     """The arrays of a field table as numpy views of its packed buffers (Python side)."""
-    head = P[0]
+    head = P[0][:HEAD * len(table)].tolist()
     out = []
     for k, f in enumerate(table):
-        o = int(head[HEAD * k])
-        dims = tuple(int(d) for d in head[HEAD * k + 1:HEAD * k + 1 + len(f.shape)])
-        n = int(np.prod(dims)) if dims else 1
-        out.append(P[_BUFFER[f.kind]][o:o + n].reshape(dims))
+        o = head[HEAD * k]
+        dims = head[HEAD * k + 1:HEAD * k + 1 + len(f.shape)]
+        out.append(P[_BUFFER[f.kind]][o:o + math.prod(dims)].reshape(dims))
     return out
 
 
@@ -306,16 +343,25 @@ def make_state(system: System, q: np.ndarray | None = None, t: float = 0.0) -> S
 # =============================================================================
 # Data
 # =============================================================================
-@dataclass(frozen=True, eq=False)
 class Data:
     """The mutable scratch of one solve (:data:`DATA_FIELDS`), allocated once and reused.
 
     ``DP`` is the packed form the kernels take; ``v`` the same arrays as
-    named numpy views for Python code (``data.v.T``, ``data.v.pcol`` ...).
+    named numpy views for Python code (``data.v.T``, ``data.v.pcol`` ...),
+    made when first asked for.
     """
 
-    DP: tuple[np.ndarray, np.ndarray, np.ndarray]
-    v: Any
+    def __init__(self, DP: tuple[np.ndarray, np.ndarray, np.ndarray]) -> None:
+        self.DP = DP
+
+    @cached_property
+    def v(self) -> Any:
+        """The fields as named numpy views of ``DP``."""
+        return KWork(*views(DATA_FIELDS, self.DP))
+
+    def view(self, name: str) -> np.ndarray:
+        """One field as a numpy view of ``DP`` (cheaper than :attr:`v` for one or two)."""
+        return view(DATA_FIELDS, self.DP, name)
 
 
 def data_sizes(system: System, nd: int = 0) -> dict[str, int]:
@@ -327,8 +373,7 @@ def data_sizes(system: System, nd: int = 0) -> dict[str, int]:
 
 def make_data(system: System, nd: int = 0) -> Data:
     """The scratch of one solve of ``system`` with ``nd`` drivers."""
-    DP = allocate(DATA_FIELDS, data_sizes(system, nd))
-    return Data(DP, KWork(*views(DATA_FIELDS, DP)))
+    return Data(allocate(DATA_FIELDS, data_sizes(system, nd)))
 
 
 # =============================================================================

@@ -21,7 +21,7 @@ from openimp.kinematics.position import screws
 from openimp.system import data_views, model_views
 
 
-@njit(nrt=False)
+@njit(nrt=False, inline="always")
 def jacobian(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None) -> None:
     """Jacobian of the loop equations (6.45): L(i,h) times the screws of D_h, ER rows.
 

@@ -162,7 +162,7 @@ def position(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, order: int)
     return err
 
 
-@njit(nrt=False)
+@njit(nrt=False, inline="always")
 def screws(KP: tuple, DP: tuple, gen: np.ndarray | None) -> None:
     """Screw coordinates (6.41) of D_h^g = A_h Q_h^g A_h^-1 (6.14) for every variable.
 

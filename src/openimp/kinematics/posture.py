@@ -154,11 +154,14 @@ def sgc_residual(data: Data, sgc: np.ndarray, rank: int) -> float:
 
     Non-zero means a specified coordinate is determined by the constraints.
     """
-    T = data.v.T
-    free_rows = np.ones(T.shape[0], bool)
-    free_rows[data.v.prow[:rank]] = False
-    block = np.abs(T[free_rows][:, :sgc.size][:, sgc])
-    return float(block.max()) if block.size else 0.0
+    pivoted = set(data.view("prow")[:rank].tolist())
+    cols = np.flatnonzero(sgc).tolist()
+    worst = 0.0
+    for r, row in enumerate(data.view("T").tolist()):  # a few rows: plain Python is quickest
+        if r not in pivoted:
+            for c in cols:
+                worst = max(worst, abs(row[c]))
+    return worst
 
 
 def check_drivers(
@@ -179,16 +182,16 @@ def check_drivers(
     rank, det, _rest = eliminate_at(system, data, state, pivot_tol)
     nq = system.nq
     if sgc_residual(data, sgc, rank) > 1e-6:
-        T = data.v.T
+        T = data.view("T")
         used = np.zeros(T.shape[0], bool)
-        used[data.v.prow[:rank]] = True
+        used[data.view("prow")[:rank]] = True
         bad = [system.var_names[c] for c in dcols if np.any(np.abs(T[~used, c]) > 1e-6)]
         raise InputError(
             f"over-specified motion: driver(s) {', '.join(bad)} are determined by the other "
             f"drivers and the loop constraints (mobility is {nq - rank_full(system, state)}); "
             "remove one of them or drive another joint"
         )
-    piv = set(int(c) for c in data.v.pcol[:rank])
+    piv = set(data.view("pcol")[:rank].tolist())
     free = [c for c in range(nq) if c not in piv and not sgc[c]]
     if free and not hold_free:
         passive = passive_freedoms(system, data, state, rank, free)
@@ -217,7 +220,7 @@ def free_coordinate(system: System, q: np.ndarray | None) -> int | None:
     data = make_data(system)
     S = make_state(system, q)
     rank = eliminate_at(system, data, S, 1e-10)[0]
-    piv = set(int(c) for c in data.v.pcol[:rank])
+    piv = set(data.view("pcol")[:rank].tolist())
     for c in range(system.nq):
         if c not in piv and system.var_kinds[c] != "er":
             return c
