@@ -543,7 +543,7 @@ def load_table(path: str | os.PathLike[str], where: tuple[str, int] | None = Non
     if cached is not None and mtime is not None and cached[0] == mtime and (
             roots is None or (p, roots) in _TABLE_ALLOWED):
         return cached[1]
-    text = read_text(p, f"TABLE file {quote(p, 60)}", where, roots)
+    text = read_text(p, "TABLE", where, roots)
     table = _parse_table(text, p)
     if mtime is not None:
         _TABLE_CACHE[p] = (mtime, table)

@@ -1336,17 +1336,24 @@ class Deck:
     def run(self, out_dir: str | os.PathLike[str] | None = None,
             echo: Callable[[str], None] | None = None,
             progress: Callable[[int, int, int], None] | None = None,
-            notes: Callable[[str], None] | None = None) -> list[Any]:
+            notes: Callable[[str], None] | None = None,
+            overwrite: bool = False,
+            problems: Callable[[str], None] | None = None) -> list[Any]:
         """Run every EXECUTE in order; returns the list of :class:`~openimp.io.Run`.
 
         ``echo`` receives every printed line (messages, banners, PRINT output,
-        listings) in order; ``out_dir`` receives STORE files, plots and
-        animations; ``progress(run, done, total)`` is called while solving;
-        ``notes`` receives notes for stderr.
+        listings) in order; ``out_dir`` receives STORE, PRINT ON and STORE INPUT
+        files, plots and animations (without it the files go to the deck's
+        folder and graphics are not rendered); a file that exists and was not
+        written by this run is replaced only with ``overwrite``;
+        ``progress(run, done, total)`` is called while solving; ``notes``
+        receives notes for stderr and ``problems`` (default: ``notes``) one
+        message per file refused or not written.
         """
         from openimp.imp.runner import run_deck
 
-        return run_deck(self, out_dir=out_dir, echo=echo, progress=progress, notes=notes)
+        return run_deck(self, out_dir=out_dir, echo=echo, progress=progress, notes=notes,
+                        overwrite=overwrite, problems=problems)
 
     def __repr__(self) -> str:
         return (f"Deck({self.path!r}: {len(self.statements)} statements, "

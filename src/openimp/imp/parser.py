@@ -474,11 +474,11 @@ class _Cursor:
         self.stmt.numbers.append(value)
         return value
 
-    def opt_number(self) -> float | None:
+    def opt_number(self, what: str = "value") -> float | None:
         item = self.peek()
         if item is None or item.kind != "NUMBER":
             return None
-        return self.number("value")
+        return self.number(what)
 
     def datum(self, what: str) -> Datum:
         item = self.peek()
@@ -623,7 +623,7 @@ def _h_data(ctx: _Ctx, cur: _Cursor) -> None:
         f["joint"] = cur.name("joint name")
         f["ratio"] = cur.number("ratio")
         if what == "GEAR":
-            f["distance"] = cur.opt_number()  # optional: computed from the frames
+            f["distance"] = cur.opt_number("centre distance")  # optional: from the frames
         else:
             f["radius"] = cur.number("pitch radius of the second gear")
     elif what in ("RACK", "SCREW"):
@@ -675,8 +675,8 @@ def _h_data(ctx: _Ctx, cur: _Cursor) -> None:
     elif what == "POSITION":
         f["joint"] = cur.name("joint name")
         f["start"] = cur.number("start position")
-        inc = cur.opt_number()
-        steps = cur.opt_number()
+        inc = cur.opt_number("increment")
+        steps = cur.opt_number("number of steps")
         f["increment"] = 0.0 if inc is None else inc
         # increment 0 holds the joint, forcing nsteps = 0 (reference §8.6)
         f["nsteps"] = 0 if steps is None or f["increment"] == 0.0 else round(steps)
