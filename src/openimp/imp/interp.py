@@ -604,9 +604,9 @@ class Interpreter:
         top = limits.MAX_GEAR_RATIO
         if not 1.0 / top <= abs(ratio) <= top or abs(1.0 + ratio) < 1.0 / top:
             raise self.error(f"the {what} ratio {limits.number_text(ratio)} is out of range: "
-                             f"|ratio| lies between {limits.number_text(1.0 / top)} and "
-                             f"{limits.number_text(top)} (limit MAX_GEAR_RATIO) and is not "
-                             "within that of -1")
+                             f"|ratio| must lie between {limits.number_text(1.0 / top)} and "
+                             f"{limits.number_text(top)} and |1 + ratio| be at least "
+                             f"{limits.number_text(1.0 / top)} (limit MAX_GEAR_RATIO)")
 
     def _data_rack(self, stmt: Statement) -> None:
         if stmt.fields["radius"] == 0.0:
