@@ -168,14 +168,14 @@ def _cmd_check(args: argparse.Namespace) -> int:
 
 def _target_problem(args: argparse.Namespace) -> str | None:
     """Why a --json, --csv or --out target cannot be used (checked before running)."""
-    from openimp.files import quote
+    from openimp.files import quote_path
 
     if args.json and os.path.isdir(args.json):
-        return f"--json {quote(args.json, 80)} is a directory; give the name of a file"
+        return f"--json {quote_path(args.json)} is a directory; give the name of a file"
     for opt in ("csv", "out"):
         target = getattr(args, opt)
         if target and os.path.lexists(target) and not os.path.isdir(target):
-            return f"--{opt} {quote(target, 80)} is not a directory; give a folder name"
+            return f"--{opt} {quote_path(target)} is not a directory; give a folder name"
     return None
 
 

@@ -44,6 +44,7 @@ __all__ = [
     "inside",
     "printable",
     "quote",
+    "quote_path",
     "read_text",
     "real_roots",
 ]
@@ -75,6 +76,14 @@ def quote(text: str, limit: int = 24) -> str:
     return "'" + printable(text, limit) + "'"
 
 
+def quote_path(path: str, limit: int = 80) -> str:
+    """``'path'`` for a message: escaped, and long paths cut at the front (``'...tail'``)
+    so that the file's own name shows."""
+    if len(path) > limit:
+        return "'..." + printable(path[-limit:]) + "'"
+    return "'" + printable(path) + "'"
+
+
 # --------------------------------------------------------------------------- reading
 
 
@@ -96,7 +105,7 @@ def inside(path: str | os.PathLike[str], roots: Sequence[str]) -> bool:
 
 
 def _outside(shown: str, roots: Sequence[str]) -> str:
-    folders = ", ".join(quote(r, 60) for r in roots) or "none"
+    folders = ", ".join(quote_path(r) for r in roots) or "none"
     return (f"the file {shown} is outside the folders a deck may read ({folders}); "
             "move it into the deck's folder or allow its folder with --allow-read DIR "
             "(Python: allow_read=[...])")
@@ -107,7 +116,7 @@ def check_readable(path: str, what: str, where: Where | None,
                    max_bytes: int = MAX_FILE_BYTES) -> None:
     """Raise InputError (``what: ...`` at ``where``) unless ``path`` is a regular
     file of at most ``max_bytes`` inside ``roots`` (when given)."""
-    shown = quote(path, 60)
+    shown = quote_path(path)
     if roots is not None and not inside(path, roots):
         raise InputError(f"{what}: {_outside(shown, roots)}", where)
     try:
@@ -153,7 +162,7 @@ def read_text(path: str | os.PathLike[str], what: str, where: Where | None = Non
     located in the file itself.
     """
     p = os.fspath(path)
-    shown = quote(p, 60)
+    shown = quote_path(p)
     if roots is not None and not inside(p, roots):
         raise InputError(f"{what}: {_outside(shown, roots)}", where)
     try:
@@ -241,7 +250,7 @@ def _write_error(path: Path, exc: OSError) -> OutputError:
         why = "it is a directory"
     else:
         why = _reason(exc)
-    return OutputError(f"the file {quote(str(path), 80)} cannot be written ({why})", str(path))
+    return OutputError(f"the file {quote_path(str(path))} cannot be written ({why})", str(path))
 
 
 def atomic_write_with(path: str | os.PathLike[str], write: Callable[[str], None]) -> Path:
@@ -317,17 +326,17 @@ class OutputFolder:
         loc = f"{where[0]}:{where[1]}: " if where is not None else ""
         rel = Path(name)
         if rel.is_absolute() or ".." in rel.parts or not rel.parts:
-            self.refused.append(f"{loc}the file name {quote(name, 60)} leaves the output folder; "
+            self.refused.append(f"{loc}the file name {quote_path(name)} leaves the output folder; "
                                 "give a name inside it")
             return None
         p = self.base / rel
         if not inside(_existing_ancestor(p.parent), real_roots([self.base])):
-            self.refused.append(f"{loc}the file {quote(str(p), 80)} is not written: a symbolic "
+            self.refused.append(f"{loc}the file {quote_path(str(p))} is not written: a symbolic "
                                 "link leads out of the output folder")
             return None
         key = os.path.realpath(p)
         if (os.path.lexists(p) and key not in self.created and not self.overwrite):
-            self.refused.append(f"{loc}the file {quote(str(p), 80)} exists and was not written "
+            self.refused.append(f"{loc}the file {quote_path(str(p))} exists and was not written "
                                 "by this run, so it is kept; give --overwrite to replace it "
                                 "(Python: overwrite=True), or another output folder (--out DIR)")
             return None

@@ -38,7 +38,7 @@ import numpy as np
 
 from openimp import limits
 from openimp.errors import InputError, OpenIMPError
-from openimp.files import quote, read_text
+from openimp.files import quote, quote_path, read_text
 from openimp.imp.lexer import (
     _NUMBER_RE,
     Scanner,
@@ -574,7 +574,7 @@ def _parse_table(text: str, p: str) -> FourierTable:
                 raise InputError(f"TABLE file: more than {limits.MAX_TABLE_ORDINATES} ordinates "
                                  "(limit MAX_TABLE_ORDINATES)", (p, lineno))
     if len(numbers) < 3:
-        raise InputError(f"TABLE file {quote(p, 60)} holds {len(numbers)} numbers; it needs min "
+        raise InputError(f"TABLE file {quote_path(p)} holds {len(numbers)} numbers; it needs min "
                          "x, max x and at least one ordinate", (p, 1))
     try:
         return FourierTable(numbers[0], numbers[1], tuple(numbers[2:]), p)

@@ -38,7 +38,7 @@ import numpy as np
 
 from openimp import limits
 from openimp.errors import InputError
-from openimp.files import check_readable, quote, real_roots
+from openimp.files import check_readable, quote_path, real_roots
 from openimp.imp.expr import Expression
 from openimp.imp.jointmap import IMP_JOINTS, bevel_frames, placement_frames
 from openimp.imp.parser import JOINT_DOF, Statement, parse_file
@@ -935,11 +935,11 @@ class Interpreter:
         folder (an absolute path, a ``..`` component) or is not a plain name."""
         parts = name.replace("\\", "/").split("/")
         if os.path.isabs(name) or name.startswith(("/", "\\", "~")) or ".." in parts:
-            raise self.error(f"the file name {quote(name, 60)} leaves the output folder: files "
+            raise self.error(f"the file name {quote_path(name)} leaves the output folder: files "
                              "are written only inside the --out folder (or the deck's folder); "
                              "give a name relative to it, without '..'")
         if any(not ch.isprintable() for ch in name) or not name.strip():
-            raise self.error(f"the file name {quote(name, 60)} holds control characters; give "
+            raise self.error(f"the file name {quote_path(name)} holds control characters; give "
                              "a plain file name")
         return name
 

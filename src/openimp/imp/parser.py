@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from openimp.errors import InputError
-from openimp.files import quote, read_text, real_roots
+from openimp.files import quote, quote_path, read_text, real_roots
 from openimp.imp.expr import (
     FUNCTIONS,
     Call,
@@ -1211,9 +1211,9 @@ class _Reader:
         """Refuse a RECALL INPUT that nests too deep or recalls a file being read."""
         real = os.path.realpath(path)
         if real in self.active:
-            chain = " -> ".join(quote(os.path.basename(p), 40) for p in
+            chain = " -> ".join(quote_path(os.path.basename(p), 40) for p in
                                 [*self.active[self.active.index(real):], real])
-            raise stmt.error(f"the file {quote(path, 60)} recalls itself ({chain}); a file "
+            raise stmt.error(f"the file {quote_path(path)} recalls itself ({chain}); a file "
                              "cannot be recalled while it is being read")
         if self.depth >= self.MAX_DEPTH:
             raise stmt.error(f"RECALL INPUT files are nested more than {self.MAX_DEPTH} deep "

@@ -1069,6 +1069,12 @@ class Context:
         self.folder.claim(path)
 
 
+def _ascii(text: str) -> str:
+    """``text`` for a picture: printable ASCII, any other character as '?' (the fonts
+    of the pictures need not have a glyph for it, and IMP titles are ASCII)."""
+    return "".join(ch if " " <= ch <= "~" else "?" for ch in text)
+
+
 def _title(state: State) -> str:
     return state.title or DEFAULT_TITLE
 
@@ -1190,7 +1196,7 @@ def _scene(prep: Prepared, sol: Solution, steps: slice, title: str) -> Any:
             axes.append((j, _joint_frames(prep, sol, j)[steps], float(length)))
     view = g.view
     return Scene(links=links, colors=colors, view=view, axes=axes,
-                 times=np.asarray(sol.times[steps]), title=title)
+                 times=np.asarray(sol.times[steps]), title=_ascii(title))
 
 
 def _graphics(prep: Prepared, sol: Solution, run: io.Run, ctx: Context) -> None:
@@ -1291,7 +1297,7 @@ def _design_scene(state: State, where: tuple[str, int]) -> Any:
             F = state.links[jd.link1].frame @ L1
             axes.append((j, F[None], float(length)))
     return Scene(links=links, colors=colors, view=g.view, axes=axes, times=np.zeros(1),
-                 title=_title(state))
+                 title=_ascii(_title(state)))
 
 
 @contextmanager
@@ -1311,8 +1317,10 @@ def _warnings_as_notes(ctx: Context, where: Where, messages: list[str] | None = 
                     continue
                 seen.add(text)
                 note = (f"{where[0]}:{where[1]}: a computation gave a warning ({text}, in "
-                        f"{os.path.basename(w.filename)}:{w.lineno}); values that are not "
-                        "finite are listed as ????: check the sizes of the input numbers")
+                        f"{os.path.basename(w.filename)}:{w.lineno})")
+                if issubclass(w.category, RuntimeWarning):
+                    note += ("; values that are not finite are listed as ????: check the sizes "
+                             "of the input numbers")
                 ctx.notes(note)
                 if messages is not None:
                     messages.append(note)
