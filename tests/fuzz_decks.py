@@ -47,7 +47,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-SOURCES = sorted([*(ROOT / "examples").glob("*.imp"), *(ROOT / "tests" / "decks").glob("*.imp")])
+SOURCES = sorted([*(ROOT / "examples").glob("*.imp"), *(ROOT / "tests" / "decks").glob("*.imp"),
+                  *(ROOT / "tests" / "decks" / "fuzz").glob("*.imp")])
 #: support files a deck of the sources reads (copied beside every deck)
 SUPPORT = {"cam_profile.tab": (ROOT / "examples" / "cam_profile.tab").read_bytes()}
 
@@ -61,6 +62,10 @@ NASTY_NUMBERS = [
     "9223372036854775808", "2147483648", "100000", "100001", "99999", "1.2.3", "12E12E12",
     "0.0000001", "3.14159", "2.5", "-2.5", "25", "1000000000",
 ]
+#: numbers the input checks accept but the arithmetic may not like
+EDGE_NUMBERS = ["1E149", "-1E149", "1E140", "1E100", "1E75", "1E59", "-1E59", "1E60", "1E-300",
+                "4.9E-324", "1E-14", "1E-13", "1E-7", "99999", "100000", "1000", "5E149",
+                "1.0000001", "-1.0000001", "1E6", "1E-6", "0"]
 NAMES = ["A", "B", "C", "D", "E", "R1", "R2", "S", "U", "P", "CP", "CB", "BASE", "CRANK",
          "COUPLER", "ROCKER", "G1", "G2", "M", "V", "W", "X1", "SLID", "PIN", "QQ"]
 CONTROL_CHARS = ["\x00", "\x07", "\x0b", "\x0c", "\x1b", "\x1c", "\x7f", "\x85", "\u2028",
@@ -93,8 +98,39 @@ def _num(rng: random.Random) -> str:
     return f"{rng.uniform(-10, 10):.{rng.randint(0, 6)}f}"
 
 
+_DECK_NAMES: list[str] = []  # joint names of the deck being mutated (set by make_case)
+_DRIVEN: list[str] = []  # its joints with an input motion
+_JOINT_NAME = re.compile(r"^\s*(?:[XYZ]PIN|REVOLUTE|[XYZ]SLIDE|PRISM|CYLINDER|UJOINT|SPHERE|"
+                         r"GEAR|RACK|SCREW|CAM|SLOT|RIGID|FLAT|PLANE|OPEN|BEVEL)\b[^=\n]*=\s*"
+                         r"([A-Z][A-Z0-9]*)", re.MULTILINE)
+
+
 def _name(rng: random.Random) -> str:
+    if _DECK_NAMES and rng.random() < 0.7:
+        return rng.choice(_DECK_NAMES)
     return rng.choice(NAMES)
+
+
+def _edge_statements(rng: random.Random) -> list[str]:
+    """Statements that pass the input checks with numbers at the edge of the limits."""
+    e = rng.choice(EDGE_NUMBERS)
+    j = rng.choice(_DRIVEN) if _DRIVEN and rng.random() < 0.8 else _name(rng)
+    p = _name(rng)
+    return rng.choice([
+        [f"VALUE (VV) = {_expr(rng)}", f"DATA MOTION ({j}) = VV"],
+        [f"VALUE (VV) = T*{e}", f"DATA MOTION ({j}) = VV"],
+        [f"VALUE (VV) = EXP(T*{rng.choice(['700', '709', '710', '1E3'])})",
+         f"DATA MOTION ({j}) = VV"],
+        [f"VALUE (VV) = {e}@T", f"DATA MOTION ({j}) = VV", "DATA TIME = 3, 0, 0.5"],
+        [f"DATA POSITION ({j}) = 0, {e}, 3", f"DATA VELOCITY ({j}) = {e}"],
+        [f"DATA ACCEL ({j}) = {e}"],
+        [f"DATA POINT ({p}, ABS) = {e}, 0, {rng.choice(EDGE_NUMBERS)}"],
+        [f"DATA TIME = {e}, 0, {rng.choice(EDGE_NUMBERS)}"],
+        [f"ZERO (POSITION) = {rng.choice(EDGE_NUMBERS)}, {rng.choice(['1', '1000', '5'])}"],
+        [f"ZERO (SYSTEM) = {rng.choice(EDGE_NUMBERS)}"],
+        [f"VALUE (VV) = TABLE(T*{e}): cam_profile.tab", "LIST VALUE (VV)"],
+        [f"DATA GEAR ({j}) = {rng.choice(['1E6', '-0.999999', '1E-6', '-1.000001'])}, 2"],
+    ])
 
 
 def _expr(rng: random.Random, depth: int = 0) -> str:
@@ -230,16 +266,24 @@ def _argv(rng: random.Random, deck: str) -> list[str]:
     if rng.random() < 0.5:
         argv.append("--quiet")
     if rng.random() < 0.5:
-        argv += ["--json", rng.choice(["{out}/r.json"] * 8 + ["{out}/adir", "{out}"])]
+        argv += ["--json", rng.choice(["{out}/r.json"] * 30 + ["{out}/adir", "{out}"])]
     if rng.random() < 0.3:
-        argv += ["--csv", rng.choice(["{out}/csv"] * 8 + ["{out}/r.txt", "{deck}"])]
+        argv += ["--csv", rng.choice(["{out}/csv"] * 30 + ["{out}/r.txt", "{deck}"])]
     if rng.random() < 0.3:
-        argv += ["--out", rng.choice(["{out}/pics"] * 8 + ["{out}/r.txt", "{deck}"])]
+        argv += ["--out", rng.choice(["{out}/pics"] * 30 + ["{out}/r.txt", "{deck}"])]
     if rng.random() < 0.1:
         argv.append("--overwrite")
     if rng.random() < 0.05:
         argv += ["--allow-read", "{outside}"]
     return argv
+
+
+def _before_execute(lines: list[str]) -> int:
+    """The index of the first EXECUTE line (the end when there is none)."""
+    for i, ln in enumerate(lines):
+        if ln.strip().upper().startswith("EXEC"):
+            return i
+    return len(lines)
 
 
 def make_case(seed: int, index: int) -> Case:
@@ -248,16 +292,27 @@ def make_case(seed: int, index: int) -> Case:
     notes: list[str] = []
     src = rng.choice(SOURCES)
     notes.append(src.name)
-    if rng.random() < 0.1:
+    text = src.read_text(errors="replace")
+    _DECK_NAMES[:] = sorted(set(_JOINT_NAME.findall(text)))
+    _DRIVEN[:] = sorted(set(re.findall(r"DATA (?:POSITION|MOTION) \((\w+)\)", text)))
+    r = rng.random()
+    if r < 0.45 and src.parent.name == "fuzz":  # the reproducers are broken already
+        r = 0.5
+    if r < 0.1:
         lines = [_statement(rng) for _ in range(rng.randint(1, 12))]
         notes.append("generated")
+    elif r < 0.45:  # the deck kept whole, but for statements at the edge of the limits
+        lines = text.split("\n")
+        at = _before_execute(lines)
+        new = _edge_statements(rng)
+        lines[at:at] = new
+        notes.append(f"edge at line {at + 1}: {' / '.join(new)[:80]!r}")
     else:
-        lines = src.read_text().split("\n")
-    for _ in range(rng.choice([1, 1, 1, 2, 3, 5])):
-        lines = _mutate(rng, lines, notes)
-    text = "\n".join(lines)
+        lines = text.split("\n")
+        for _ in range(rng.choice([1, 1, 1, 2, 3, 5])):
+            lines = _mutate(rng, lines, notes)
     files = dict(SUPPORT)
-    files["deck.imp"] = _encode(rng, text, notes)
+    files["deck.imp"] = _encode(rng, "\n".join(lines), notes)
     files["other.imp"] = "\n".join(_statement(rng) for _ in range(3)).encode()
     files["self.imp"] = b"RECALL INPUT = self.imp\nRECALL INPUT = other.imp\n"
     files["sub/inner.imp"] = b"RECALL INPUT = ../other.imp\nRETURN\n"

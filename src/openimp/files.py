@@ -76,7 +76,7 @@ def quote(text: str, limit: int = 24) -> str:
     return "'" + printable(text, limit) + "'"
 
 
-def quote_path(path: str, limit: int = 80) -> str:
+def quote_path(path: str, limit: int = 160) -> str:
     """``'path'`` for a message: escaped, and long paths cut at the front (``'...tail'``)
     so that the file's own name shows."""
     if len(path) > limit:
@@ -250,6 +250,9 @@ def _write_error(path: Path, exc: OSError) -> OutputError:
         why = "it is a directory"
     else:
         why = _reason(exc)
+        blocker = _existing_ancestor(path.parent)
+        if os.path.lexists(blocker) and not blocker.is_dir():
+            why = f"{quote_path(str(blocker))} is a file, not a folder"
     return OutputError(f"the file {quote_path(str(path))} cannot be written ({why})", str(path))
 
 

@@ -303,7 +303,7 @@ class Interpreter:
             self._stmt = stmt
             echo = self.echo and not (stmt.keyword == "PRINT INPUT")
             if echo:
-                for line in stmt.text.splitlines() or [""]:
+                for line in stmt.text.split("\n") or [""]:
                     self.text(line)
             if self.store_input is not None and stmt.keyword not in ("STORE INPUT",):
                 self.store_input[1].append(stmt.text)

@@ -1084,7 +1084,7 @@ def execute_run(spec: RunSpec, ctx: Context) -> io.Run:
     state = spec.state
     run = io.Run(_title(state), spec.mode)
     when = _time.strftime("%m/%d/%Y at %H:%M:%S")
-    for line in io.banner(run.title, spec.mode.capitalize(), when).splitlines():
+    for line in io.banner(printable(run.title), spec.mode.capitalize(), when).split("\n"):
         ctx.say(line)
     if spec.mode != "kinematic":
         fw = state.find_where
@@ -1154,7 +1154,7 @@ def execute_run(spec: RunSpec, ctx: Context) -> io.Run:
     for t in run.tables:
         if t.request.startswith("LIST"):
             ctx.say("")
-            for line in io.format_listing(t).splitlines():
+            for line in io.format_listing(t).split("\n"):
                 ctx.say(line)
     if run.failure:
         ctx.say("")
@@ -1346,6 +1346,7 @@ def _one_run(spec: RunSpec, ctx: Context) -> io.Run:
                        f"{printable(str(exc), 200)}); please report it")
     else:
         run.messages.extend(messages)
+        ctx.stopped = ctx.stopped or run.interrupted
         return run
     ctx.say(f"*** {run.failure} ***")
     if run.interrupted:
