@@ -188,7 +188,8 @@ def test_existing_files_are_kept_unless_overwrite(tmp_path: Path) -> None:
     # a second run: the STORE file of the first is not replaced either
     before = (tmp_path / "deck_store.txt").read_text()
     status, _, err = run_cli("run", d, "--quiet")
-    assert status == 1 and "deck_store.txt' exists" in err
+    assert status == 1
+    assert f"openimp: error: {d}: the file '{tmp_path / 'deck_store.txt'}' exists" in err
     assert (tmp_path / "deck_store.txt").read_text() == before
     # --overwrite replaces both
     status, _, err = run_cli("run", d, "--quiet", "--overwrite")

@@ -326,7 +326,8 @@ class OutputFolder:
 
     def target(self, name: str, where: Where | None = None) -> Path | None:
         """The path for ``name`` (relative to the folder), or None when refused."""
-        loc = f"{where[0]}:{where[1]}: " if where is not None else ""
+        loc = "" if where is None else (f"{where[0]}:{where[1]}: " if where[1] > 0 else
+                                        f"{where[0]}: ")
         rel = Path(name)
         if rel.is_absolute() or ".." in rel.parts or not rel.parts:
             self.refused.append(f"{loc}the file name {quote_path(name)} leaves the output folder; "

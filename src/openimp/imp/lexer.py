@@ -234,11 +234,12 @@ class Token:
 
     def describe(self) -> str:
         """A short phrase naming the token for error messages."""
+        text = printable(self.text, 24)
         if self.kind == "NAME":
-            return f"the name {self.text}"
+            return f"the name {text}"
         if self.kind == "NUMBER":
-            return f"the number {self.text}"
-        return f"'{self.text}'"
+            return f"the number {text}"
+        return f"'{text}'"
 
 
 class Scanner:
@@ -386,8 +387,8 @@ class Item:
         if self.implied:
             return "a 0 implied by two separators in a row"
         if self.kind == "WORD":
-            return f"the name {self.text}"
-        return f"the number {self.text}"
+            return f"the name {printable(self.text, 24)}"
+        return f"the number {printable(self.text, 24)}"
 
 
 def reduce_items(tokens: list[Token], stmt: SourceStatement | None = None) -> list[Item]:
