@@ -12,7 +12,7 @@ folder with a time limit, and :func:`failures` lists what went wrong:
 * ``internal``: the last-resort "internal error ... please report it";
 * ``traceback``: a Python traceback;
 * ``warning``: a raw Python warning, or a warning turned into a note;
-* ``no_location``: a stderr line of a failed run without ``file:line:``
+* ``no_location``: a stderr line (error or note) without ``file:line:``
   (or the deck's name, or the command-line option it is about);
 * ``outside``: a file written outside the deck's folder and the output folder,
   a file that existed before the run changed, or a temporary file left;
@@ -441,7 +441,7 @@ def failures_of(status: int | None, stdout: str, stderr: str, deck: str) -> list
         out.append("memory")
     if re.search(r"\w+Warning\b", stderr):
         out.append("warning")
-    if status in (1, 2):
+    if status in (0, 1, 2):  # every error and note on stderr says where
         for line in stderr.splitlines():
             if line.strip() and not _located(line, deck):
                 out.append("no_location")
@@ -480,14 +480,21 @@ def _changes(before: dict[str, bytes], after: dict[str, bytes], argv: list[str],
 # --------------------------------------------------------------------------- long runs
 
 
+#: decks whose runs compile every kernel the generated cases use
+WARM_DECKS = ("examples/fourbar.imp", "examples/cam.imp", "examples/rsur.imp",
+              "tests/decks/run_structure.imp", "tests/decks/run_gears.imp")
+
+
 def warm_up() -> None:
-    """Run one example so that the kernels are compiled before time limits apply."""
+    """Run a few decks so that the kernels are compiled before time limits apply."""
     from openimp import cli
 
     with tempfile.TemporaryDirectory() as tmp, contextlib.redirect_stdout(io.StringIO()), \
             contextlib.redirect_stderr(io.StringIO()):
-        shutil.copy(ROOT / "examples" / "fourbar.imp", tmp)
-        cli.main(["run", os.path.join(tmp, "fourbar.imp"), "--quiet"])
+        shutil.copy(ROOT / "examples" / "cam_profile.tab", tmp)
+        for rel in WARM_DECKS:
+            shutil.copy(ROOT / rel, tmp)
+            cli.main(["run", os.path.join(tmp, os.path.basename(rel)), "--quiet"])
 
 
 def _worker(seed: int, indices: list[int], time_limit: float, memory: int, conn: object) -> None:

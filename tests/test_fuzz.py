@@ -88,7 +88,7 @@ def test_reproducer(tmp_path: Path, name: str, monkeypatch: pytest.MonkeyPatch) 
     deck = deck_dir / name
     t0 = time.monotonic()
     got, out, err = run_cli("run", deck)
-    assert time.monotonic() - t0 < 30
+    assert time.monotonic() - t0 < 120  # no hang (a kernel may still compile on a cold cache)
     assert got == status, err
     assert fuzz_decks.failures_of(got, out, err, str(deck)) == [], err
     assert words in err
@@ -137,7 +137,7 @@ def test_generated_decks(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Non
             bad.append((case.describe(), res.failures, res.stderr[-600:]))
         shutil.rmtree(root, ignore_errors=True)
     assert bad == []
-    assert time.monotonic() - t0 < 120
+    assert time.monotonic() - t0 < 180
     # the generator reaches the analyses, not only the input checks
     assert statuses.get(0, 0) >= 30 and statuses.get(2, 0) >= 30
     assert os.listdir(tmp_path) == []

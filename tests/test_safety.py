@@ -426,6 +426,7 @@ def test_evaluation_depth_is_capped() -> None:
 
 def test_solver_options_are_checked() -> None:
     limits.check_solver_options(1e-10, 1e-10, 25, 12)
+    limits.check_solver_options(np.float64(1e-8), np.float32(1e-6), np.int64(25), np.int32(0))
     bad = [((0.0, 1e-10, 25, 12), "tol must be positive"),
            ((math.nan, 1e-10, 25, 12), "tol must be a finite number"),
            ((1e-300, 1e-10, 25, 12), "limit MIN_TOLERANCE"),
@@ -433,6 +434,8 @@ def test_solver_options_are_checked() -> None:
            ((1e-10, 1e-10, 0, 12), "maxit must be at least 1"),
            ((1e-10, 1e-10, 10**9, 12), "limit MAX_ITERATIONS"),
            ((1e-10, 1e-10, 2.5, 12), "maxit must be a whole number"),
+           ((1e-10, 1e-10, True, 12), "maxit must be a whole number"),
+           (("1e-10", 1e-10, 25, 12), "tol must be a finite number"),
            ((1e-10, 1e-10, 25, -1), "maxhalve must be at least 0"),
            ((1e-10, 1e-10, 25, 64), "limit MAX_HALVINGS")]
     for args, words in bad:

@@ -32,7 +32,10 @@ the kinematic core calls it for every sweep.
 from __future__ import annotations
 
 import math
+import numbers
 from typing import Any
+
+import numpy as np
 
 from openimp.errors import InputError
 
@@ -110,7 +113,8 @@ def number_text(x: float) -> str:
 
 
 def _is_number(x: Any) -> bool:
-    return isinstance(x, int | float) and not isinstance(x, bool)
+    """True for a real number (Python or numpy), not a bool."""
+    return isinstance(x, numbers.Real) and not isinstance(x, bool | np.bool_)
 
 
 def check_tolerance(value: Any, what: str) -> float:
