@@ -1041,8 +1041,9 @@ class Context:
         if self.print_on is not None:
             self.print_files.setdefault(self.print_on, []).append(line)
 
-    def get_viz(self) -> Any:
-        """The viz module, or None (with a note) when it cannot be imported."""
+    def get_viz(self, where: Where) -> Any:
+        """The viz module, or None (with a note located at ``where``) when it cannot be
+        imported."""
         if self.viz is None and self.viz_error is None:
             try:
                 from openimp import viz  # type: ignore[attr-defined]
@@ -1050,8 +1051,8 @@ class Context:
                 self.viz = viz
             except Exception as exc:
                 self.viz_error = f"{type(exc).__name__}: {exc}"
-                self.notes(f"graphics were not rendered: openimp.viz cannot be imported "
-                           f"({self.viz_error})")
+                self.notes(f"{where[0]}:{where[1]}: graphics were not rendered: openimp.viz "
+                           f"cannot be imported ({printable(self.viz_error, 200)})")
         return self.viz
 
     def picture(self, name: str, where: Where, render: Callable[[str], Any]) -> None:
@@ -1209,7 +1210,7 @@ def _graphics(prep: Prepared, sol: Solution, run: io.Run, ctx: Context) -> None:
     if not _can_render(ctx, prep.spec.where):
         return
     _interactive_note(st, ctx)
-    viz = ctx.get_viz()
+    viz = ctx.get_viz(prep.spec.where)
     if viz is None or sol.n == 0:
         return
     k = prep.spec.index
@@ -1251,7 +1252,7 @@ def _draw(state: State, where: tuple[str, int], ctx: Context) -> None:
     if not _can_render(ctx, where):
         return
     _interactive_note(state, ctx)
-    viz = ctx.get_viz()
+    viz = ctx.get_viz(where)
     if viz is None:
         return
     ctx.draws += 1
