@@ -535,3 +535,16 @@ def test_empty_decks_are_refused_by_check_too(tmp_path: Path) -> None:
     assert err.startswith(f"{d}: the deck holds no statement")
     with pytest.raises(DeckError):
         load(d)
+
+
+def test_library_log_records_become_located_notes(monkeypatch: pytest.MonkeyPatch) -> None:
+    import logging
+
+    def check(args):  # type: ignore[no-untyped-def]
+        for _ in range(2):
+            logging.getLogger("matplotlib.text").warning("posx and posy should be finite")
+        return 0
+
+    monkeypatch.setattr(cli, "_cmd_check", check)
+    assert run_cli("check", "x.imp") == (
+        0, "", "openimp: note: x.imp: matplotlib.text: posx and posy should be finite\n")

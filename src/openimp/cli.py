@@ -31,6 +31,7 @@ status 1, warnings as located notes.
 from __future__ import annotations
 
 import argparse
+import logging
 import os
 import sys
 import time
@@ -276,12 +277,33 @@ def _note_warnings(caught: list[warnings.WarningMessage], deck: str | None) -> N
                  f"in {os.path.basename(w.filename)}:{w.lineno})")
 
 
+class _LogNotes(logging.Handler):
+    """Log records of libraries (matplotlib, numba) as located notes, once each."""
+
+    def __init__(self, deck: str | None) -> None:
+        super().__init__(logging.WARNING)
+        self.deck = deck
+        self.seen: set[str] = set()
+
+    def emit(self, record: logging.LogRecord) -> None:
+        from openimp.files import printable
+
+        text = printable(f"{record.name}: {record.getMessage()}", 200)
+        if text not in self.seen:
+            self.seen.add(text)
+            _err(f"openimp: note: {self.deck or 'openimp'}: {text}")
+
+
 def _dispatch(argv: Sequence[str] | None) -> int:
     parser = _parser()
     args = parser.parse_args(argv)
     if args.command is None:
         parser.print_help(sys.stderr)
         return EXIT_INPUT
+    deck = getattr(args, "deck", None)
+    log = logging.getLogger()
+    handler = _LogNotes(deck)
+    log.addHandler(handler)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
@@ -289,7 +311,8 @@ def _dispatch(argv: Sequence[str] | None) -> int:
                 return _cmd_check(args)
             return _cmd_run(args)
         finally:
-            _note_warnings(caught, getattr(args, "deck", None))
+            log.removeHandler(handler)
+            _note_warnings(caught, deck)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
