@@ -20,7 +20,7 @@ folder with a time limit, and :func:`failures` lists what went wrong:
 
 The test suite runs a few hundred cases (``tests/test_fuzz.py``); a long run::
 
-    python -m tests.fuzz_decks --count 20000 --seed 1 [--workers 2] [--save DIR]
+    python -m tests.fuzz_decks --count 20000 --seed 1 [--workers 2] [--save DIR] [--extra DIR]
 
 runs each batch of cases in a worker process (memory capped, killed if a
 case hangs past ``--hard-timeout``) and prints the count of every class.
@@ -620,7 +620,11 @@ def main(argv: list[str] | None = None) -> int:
                    help="seconds without a result before a worker is killed")
     p.add_argument("--memory", type=int, default=4096, help="MB of address space per worker")
     p.add_argument("--save", type=Path, help="folder for the decks of failing cases")
+    p.add_argument("--extra", type=Path, action="append", default=[],
+                   help="a folder of more decks to mutate (*.imp, searched recursively)")
     a = p.parse_args(argv)
+    for folder in a.extra:
+        SOURCES.extend(sorted(folder.rglob("*.imp")))
     counts = long_run(a.count, a.seed, a.workers, a.time_limit, a.hard_timeout,
                       a.memory << 20, a.save, a.start)
     return 1 if sum(counts.values()) else 0
