@@ -111,6 +111,20 @@ def test_return_in_a_value_stops_the_run_with_a_message(tmp_path: Path) -> None:
     assert [r.split()[0] for r in rows] == ["0.000000", "0.250000", "0.500000"]
 
 
+def test_return_in_a_listed_value_stops_the_run_too(tmp_path: Path) -> None:
+    deck = tmp_path / "v.imp"
+    deck.write_text("ZPIN (BASE, CRANK) = A\nVALUE (V) = IF(T-2: T, T, RETURN)\n"
+                    "DATA POSITION (A) = 0, 10, 5\nLIST POSITION (A)\nLIST VALUE (V)\n"
+                    "EXECUTE\nEND\n")
+    status, out, err = run_cli("run", deck)
+    assert status == 0, err
+    assert (f"*** {deck}:2: VALUE V evaluated RETURN at time 3.000000: the run stops there "
+            "(RETURN in a VALUE); the 3 position(s) before it are listed ***") in out
+    rows = out.split("Listing of position of joint A")[1].split("Listing")[0].split("\n")
+    assert [r.split()[0] for r in rows[2:] if r.strip()] == ["0.000000", "1.000000",
+                                                            "2.000000"]
+
+
 def test_end_in_a_value_also_ends_the_deck(tmp_path: Path) -> None:
     deck = tmp_path / "end.imp"
     deck.write_text((FUZZ / "r_return.imp").read_text().replace("RETURN", "END")

@@ -795,9 +795,9 @@ def _resolver(prep: Prepared, sol: Solution, k: int, t: float, motions: Motions 
     return resolve
 
 
-def _rows(sol: Solution, k: int) -> Solution:
-    """The one-step solution at step ``k``."""
-    sl = slice(k, k + 1)
+def _rows(sol: Solution, k: int, stop: int | None = None) -> Solution:
+    """The solution of steps ``k`` to ``stop`` (default: step ``k`` alone)."""
+    sl = slice(k, k + 1 if stop is None else stop)
     return Solution(
         times=sol.times[sl], q=sol.q[sl], qd=sol.qd[sl], qdd=sol.qdd[sl],
         quality=sol.quality[sl], iterations=sol.iterations[sl], mobility=sol.mobility[sl],
@@ -805,6 +805,37 @@ def _rows(sol: Solution, k: int) -> Solution:
         bodies={b: tuple(x[sl] for x in v) for b, v in sol.bodies.items()},  # type: ignore
         points={p: tuple(x[sl] for x in v) for p, v in sol.points.items()},  # type: ignore
     )
+
+
+def _value_stop(prep: Prepared, sol: Solution, notes: list[str]) -> Solution:
+    """``sol`` cut before the first step at which a VALUE of the run's requests
+    evaluates RETURN or END: IMP stops the simulation there (reference §5)."""
+    st = prep.spec.state
+    first: tuple[int, str, SimulationStop] | None = None
+    for it in prep.items:
+        if it.kind != "value":
+            continue
+        ex = st.values[it.name]
+        for k in range(sol.n if first is None else first[0]):
+            try:
+                ex.derivatives(st.values, _resolver(prep, sol, k, sol.times[k], None, k, []))
+            except SimulationStop as stop:
+                first = (k, it.name, stop)
+                break
+    if first is None:
+        return sol
+    k, name, stop = first
+    cut = _rows(sol, 0, k)
+    cut.message = ""
+    listed = f"the {k} position(s) before it are listed" if k else "no position is listed"
+    text = (f"{stop.where[0]}:{stop.where[1]}: VALUE {name} evaluated {stop.kind} at time "
+            f"{sol.times[k]:.6f}: the run stops there ")
+    if stop.kind == "END":
+        cut.stop = text + f"and no further EXECUTE runs (END in a VALUE leaves IMP); {listed}"
+        cut.end = True
+    else:
+        cut.stop = text + f"(RETURN in a VALUE); {listed}"
+    return cut
 
 
 def _values(prep: Prepared, sol: Solution, name: str, notes: list[str]) -> np.ndarray:
@@ -1128,6 +1159,8 @@ def execute_run(spec: RunSpec, ctx: Context) -> io.Run:
             assert ctx.progress is not None
             ctx.progress(_i, done, total)
     sol = solve(prep, times, start, notes, prog)
+    if not (sol.stop or sol.interrupted) and sol.n:
+        sol = _value_stop(prep, sol, notes)
     # tables
     tables: dict[tuple[str, str, str], io.Table] = {}
     for it in prep.items:
