@@ -61,6 +61,8 @@ def printable(text: str, limit: int | None = None) -> str:
     cut = limit is not None and len(text) > limit
     if cut:
         text = text[:limit]
+    elif text.isprintable():  # the common case, checked at C speed (line separators and
+        return text          # other Z*/C* characters are not "printable")
     out = []
     for ch in text:
         if ch == "\t" or (ch.isprintable() and ch not in _LINE_BREAKS):
