@@ -270,7 +270,7 @@ def test_out_dir_graphics_and_store(tmp_path) -> None:
     assert len(rows) == 13 and math.isclose(float(rows[0].split()[0]), 0.0)
 
 
-def test_store_without_out_goes_to_cwd(tmp_path) -> None:
+def test_store_without_out_goes_to_the_decks_folder(tmp_path) -> None:
     deck = tmp_path / "s.imp"
     deck.write_text(FOURBAR_HEAD + "DATA POSITION (A) = 0, 30, 2\nSTORE VELOCITY (CP)\n"
                     "EXECUTE\nEND\n")
@@ -279,5 +279,6 @@ def test_store_without_out_goes_to_cwd(tmp_path) -> None:
     p = openimp("run", deck, "--quiet", cwd=work)
     no_traceback(p)
     assert p.returncode == 0
-    text = (work / "s_store.txt").read_text()
+    assert not (work / "s_store.txt").exists()  # not the current directory
+    text = (tmp_path / "s_store.txt").read_text()
     assert "# STORE VELOCITY point CP" in text

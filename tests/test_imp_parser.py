@@ -1051,8 +1051,18 @@ class TestRecall:
 
     def test_recursive_recall_is_stopped(self, tmp_path):
         (tmp_path / "self.dat").write_text("RECALL INPUT = self.dat\n")
-        with pytest.raises(InputError, match="nested"):
+        with pytest.raises(InputError, match="recalls itself"):
             parse_file(tmp_path / "self.dat")
+        # through another file, and deeper than the limit without recursion
+        (tmp_path / "a.dat").write_text("RECALL INPUT = b.dat\n")
+        (tmp_path / "b.dat").write_text("RECALL INPUT = a.dat\n")
+        with pytest.raises(InputError, match=r"recalls itself \('a.dat' -> 'b.dat' -> 'a.dat'"):
+            parse_file(tmp_path / "a.dat")
+        for k in range(20):
+            (tmp_path / f"n{k}.dat").write_text(f"RECALL INPUT = n{k + 1}.dat\n")
+        (tmp_path / "n20.dat").write_text("CLEAR\n")
+        with pytest.raises(InputError, match="nested more than 16 deep"):
+            parse_file(tmp_path / "n0.dat")
 
     def test_end_stops_reading_in_a_recalled_file_too(self, tmp_path):
         (tmp_path / "quit.dat").write_text("CLEAR\nEND\nGARBAGE ###\n")

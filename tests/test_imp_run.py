@@ -609,8 +609,10 @@ EXECUTE
 END
 """)
     _deck, runs, echo = run_deck(p)
-    assert "*** Input motion for joint A 1 is redefined. ***" in echo
-    assert "*** The fixed link is redefined. ***" in echo
+    head = FOURBAR_HEAD.count(chr(10))
+    # every message is located at the statement that caused it
+    assert f"*** {p}:{head + 3}: Input motion for joint A 1 is redefined. ***" in echo
+    assert f"*** {p}:{head + 4}: The fixed link is redefined. ***" in echo
     assert any("Joint B is redefined" in line for line in echo)
     assert any("Data for point CP is redefined" in line for line in echo)
     assert any("Point NOPE is not defined; it is skipped." in line for line in echo)

@@ -26,11 +26,12 @@ from openimp.system import compile_model as compile
 __version__ = "0.1.0"
 
 
-def load(path: str) -> Any:
-    """Read an IMP deck: the model it builds plus its requests (see openimp.imp.interp.load)."""
+def load(path: str, **options: Any) -> Any:
+    """Read an IMP deck: the model it builds plus its requests (see openimp.imp.interp.load;
+    ``options``: ``check``, ``allow_read``)."""
     from openimp.imp.interp import load as _load
 
-    return _load(path)
+    return _load(path, **options)
 
 
 __all__ = [

@@ -2,33 +2,43 @@
 
 ::
 
-    openimp run DECK [--json FILE] [--csv DIR] [--out DIR] [--quiet]
-    openimp check DECK
+    openimp run DECK [--json FILE] [--csv DIR] [--out DIR] [--overwrite]
+                     [--allow-read DIR]... [--quiet]
+    openimp check DECK [--allow-read DIR]...
     openimp --version
 
 ``run`` reads an IMP deck, runs every EXECUTE in order and prints IMP-style
 output (banners, messages, PRINT output per position, LIST listings) on
 stdout; ``--json`` writes every table at full precision in the DESIGN.md
-schema, ``--csv`` one CSV file per table, ``--out`` receives STORE files,
-plots and animations (the current directory receives STORE files without
-it).  ``check`` parses the deck, builds and validates every model, and runs
-no analysis; it lists on stderr, in the run's own words, every request or
-run that ``run`` would not produce, and then exits with status 1 as ``run``
-would.  Warnings about the deck (``file:line: warning: ...``) go to stderr.
+schema, ``--csv`` one CSV file per table, ``--out`` receives the deck's
+files (STORE, PRINT ON, STORE INPUT), plots and animations; without it the
+deck's files go to the deck's folder and graphics are not rendered.  A
+file that exists from before the run is not replaced without
+``--overwrite`` (the JSON and CSV targets, named on the command line, are).
+RECALL INPUT, TABLE and SOLID READ read only inside the deck's folder and
+the ``--allow-read`` folders.  ``check`` parses the deck, builds and
+validates every model, and runs no analysis; it lists on stderr, in the
+run's own words, every request or run that ``run`` would not produce, and
+then exits with status 1 as ``run`` would.  Warnings about the deck
+(``file:line: warning: ...``) go to stderr.
 
 Exit status: 0 success; 2 input errors (each printed as ``file:line:
-message`` on stderr, and nothing is run); 1 an analysis failed or a request
-could not be produced (what was computed is still printed and written).
-No Python traceback is ever shown: unexpected problems are reported as
-internal errors with exit status 1.
+message`` on stderr, and nothing is run); 1 an analysis failed, a request
+could not be produced or a file could not be written (what was computed is
+still printed and written); 130 interrupted by Ctrl-C (what was computed is
+still printed and written).  No Python traceback or raw Python warning is
+ever shown: unexpected problems are reported as internal errors with exit
+status 1, warnings as located notes.
 """
 
 from __future__ import annotations
 
 import argparse
+import logging
 import os
 import sys
 import time
+import warnings
 from collections.abc import Sequence
 from typing import Any, TextIO
 
@@ -37,6 +47,7 @@ __all__ = ["main"]
 EXIT_OK = 0
 EXIT_FAILURE = 1
 EXIT_INPUT = 2
+EXIT_INTERRUPTED = 130
 
 
 class _ArgumentParser(argparse.ArgumentParser):
@@ -61,11 +72,19 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--json", metavar="FILE", help="write every table, full precision, as JSON")
     r.add_argument("--csv", metavar="DIR", help="write one CSV file per table into DIR")
     r.add_argument("--out", metavar="DIR",
-                   help="directory for STORE files, plots and animations")
+                   help="folder for STORE, PRINT ON and STORE INPUT files, plots and "
+                        "animations (default: the deck's folder; graphics only with --out)")
+    r.add_argument("--overwrite", action="store_true",
+                   help="let the deck's files replace files that exist from before the run")
+    r.add_argument("--allow-read", metavar="DIR", action="append",
+                   help="let RECALL INPUT, TABLE and SOLID READ read from DIR too (repeatable; "
+                        "default: only the deck's folder)")
     r.add_argument("--quiet", action="store_true",
                    help="print nothing on stdout (errors and failures still go to stderr)")
     c = sub.add_parser("check", help="read and validate a deck without running it")
     c.add_argument("deck", help="the IMP deck file")
+    c.add_argument("--allow-read", metavar="DIR", action="append",
+                   help="let RECALL INPUT, TABLE and SOLID READ read from DIR too")
     return p
 
 
@@ -100,21 +119,39 @@ def _errors(exc: Exception) -> list[str]:
     return [str(exc)]
 
 
-def _load(path: str) -> object | None:
+def _err(line: str) -> None:
+    """One line on stderr, control characters escaped."""
+    from openimp.files import printable
+
+    print(printable(line), file=sys.stderr)
+
+
+def _print_errors(exc: Exception, deck: str) -> None:
+    """The input errors of ``exc``, at most MAX_ERRORS_SHOWN of them."""
+    from openimp.limits import MAX_ERRORS_SHOWN
+
+    lines = _errors(exc)
+    for line in lines[:MAX_ERRORS_SHOWN]:
+        _err(line)
+    if len(lines) > MAX_ERRORS_SHOWN:
+        _err(f"{deck}: {len(lines) - MAX_ERRORS_SHOWN} more input errors are not shown "
+             f"(limit MAX_ERRORS_SHOWN); correct the ones above first")
+
+
+def _load(path: str, allow_read: Sequence[str] = ()) -> object | None:
     """The parsed deck, or None after its input errors are printed on stderr."""
     from openimp.errors import InputError
     from openimp.imp.interp import load
 
     try:
-        deck = load(path)
+        deck = load(path, allow_read=allow_read)
     except InputError as exc:
         for w in getattr(exc, "warnings", []):  # they may explain the errors
-            print(w, file=sys.stderr)
-        for line in _errors(exc):
-            print(line, file=sys.stderr)
+            _err(str(w))
+        _print_errors(exc, path)
         return None
     for w in deck.warnings:
-        print(w, file=sys.stderr)
+        _err(str(w))
     return deck
 
 
@@ -122,7 +159,7 @@ def _cmd_check(args: argparse.Namespace) -> int:
     from openimp.imp.interp import DEFAULT_TITLE
     from openimp.imp.runner import not_produced, trailing_requests, validate
 
-    deck: Any = _load(args.deck)
+    deck: Any = _load(args.deck, args.allow_read or ())
     if deck is None:
         return EXIT_INPUT
     specs = deck.specs
@@ -144,10 +181,10 @@ def _cmd_check(args: argparse.Namespace) -> int:
                         f"; {len(unsupported)} request(s) not produced" if unsupported else ""))
     notes = trailing_requests(deck)
     if not specs:
-        notes.append("the deck has no EXECUTE statement: nothing would be run")
+        notes.append(f"{args.deck}: the deck has no EXECUTE statement: nothing would be run")
     if deck.interp.state.graphics.used or any(sp.state.graphics.used for sp in specs):
-        notes.append("graphics statements (DRAW, ANIMATE, PLOT ...) are rendered only by "
-                     "openimp run --out DIR")
+        notes.append(f"{args.deck}: graphics statements (DRAW, ANIMATE, PLOT ...) are "
+                     "rendered only by openimp run --out DIR")
     verdict = "OK" if not missing else \
         f"INCOMPLETE: {len(missing)} request(s) or run(s) will not be produced (see stderr)"
     print(f"{args.deck}: {len(deck.statements)} statements, {len(specs)} EXECUTE "
@@ -161,61 +198,164 @@ def _cmd_check(args: argparse.Namespace) -> int:
     return EXIT_FAILURE if missing else EXIT_OK
 
 
-def _cmd_run(args: argparse.Namespace) -> int:
-    from openimp import _warm, io
+def _target_problem(args: argparse.Namespace) -> str | None:
+    """Why a --json, --csv or --out target cannot be used (checked before running)."""
+    from openimp.files import quote_path
 
+    if args.json and os.path.isdir(args.json):
+        return f"--json {quote_path(args.json)} is a directory; give the name of a file"
+    for opt in ("csv", "out"):
+        target = getattr(args, opt)
+        if target and os.path.lexists(target) and not os.path.isdir(target):
+            return f"--{opt} {quote_path(target)} is not a directory; give a folder name"
+    return None
+
+
+def _write_outputs(args: argparse.Namespace, runs: list) -> bool:  # type: ignore[type-arg]
+    """Write --json and --csv; each failure is told (naming the path); True if all were
+    written.  A failure of one never stops the other."""
+    from openimp import io
+    from openimp.errors import OutputError
+
+    ok = True
+    if args.json:
+        try:
+            io.write_json(args.json, runs)
+        except OutputError as exc:
+            _err(f"openimp: error: --json: {exc}; the listings above hold the results")
+            ok = False
+    if args.csv:
+        try:
+            io.write_csv(args.csv, runs)
+        except OutputError as exc:
+            _err(f"openimp: error: --csv: {exc}")
+            ok = False
+    return ok
+
+
+def _report(runs: list, problems: list[str]) -> int:  # type: ignore[type-arg]
+    """Print every run's failure and unproduced request and every file problem; the
+    exit status they give."""
+    status = EXIT_OK
+    for k, run in enumerate(runs, start=1):
+        if run.failure and not run.interrupted:
+            _err(f"openimp: run {k} ({run.title}): {run.failure}")
+            status = EXIT_FAILURE
+        for u in run.unsupported:
+            _err(f"openimp: run {k} ({run.title}): {u}")
+            status = EXIT_FAILURE
+    for p in problems:
+        _err(f"openimp: error: {p}")
+        status = EXIT_FAILURE
+    return status
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    from openimp import _warm
+    from openimp.errors import OutputError
+    from openimp.files import printable
+
+    problem = _target_problem(args)
+    if problem is not None:
+        _err(f"openimp: error: {problem}")
+        return EXIT_INPUT
     _warm.start()  # on a cold kernel cache the rate kernels compile on the other core
-    deck = _load(args.deck)
+    deck = _load(args.deck, args.allow_read or ())
     if deck is None:
         return EXIT_INPUT
     out = sys.stdout
 
     def echo(line: str) -> None:
         if not args.quiet:
-            out.write(line + "\n")
+            out.write(printable(line) + "\n")
 
     def note(line: str) -> None:
-        print(f"openimp: note: {line}", file=sys.stderr)
+        _err(f"openimp: note: {line}")
 
+    problems: list[str] = []
     progress = _Progress(sys.stderr) if sys.stderr.isatty() else None
-    runs = deck.run(out_dir=args.out, echo=echo,  # type: ignore[attr-defined]
-                    progress=progress, notes=note)
+    try:
+        runs = deck.run(out_dir=args.out, echo=echo,  # type: ignore[attr-defined]
+                        progress=progress, notes=note, overwrite=args.overwrite,
+                        problems=problems.append)
+    except OutputError as exc:
+        _err(f"openimp: error: --out: {exc}")
+        return EXIT_INPUT
     out.flush()
-    status = EXIT_OK
-    for k, run in enumerate(runs, start=1):
-        if run.failure:
-            print(f"openimp: run {k} ({run.title}): {run.failure}", file=sys.stderr)
-            status = EXIT_FAILURE
-        for u in run.unsupported:
-            print(f"openimp: run {k} ({run.title}): {u}", file=sys.stderr)
-            status = EXIT_FAILURE
-    if args.json:
-        io.write_json(args.json, runs)
-    if args.csv:
-        os.makedirs(args.csv, exist_ok=True)
-        io.write_csv(args.csv, runs)
+    status = _report(runs, problems)
+    if not _write_outputs(args, runs):
+        status = EXIT_FAILURE
     if not runs:
-        note("the deck has no EXECUTE statement: nothing was run")
+        note(f"{args.deck}: the deck has no EXECUTE statement: nothing was run")
+    stopped = [r for r in runs if r.interrupted]
+    if stopped:
+        _err(f"openimp: interrupted (Ctrl-C): {stopped[0].failure}; what was computed is "
+             "listed and written")
+        return EXIT_INTERRUPTED
     return status
+
+
+def _note_warnings(caught: list[warnings.WarningMessage], deck: str | None) -> None:
+    """Python warnings that escaped the runs, as one located note each."""
+    from openimp.files import printable
+
+    seen: set[str] = set()
+    for w in caught:
+        text = f"{w.category.__name__}: {printable(str(w.message), 120)}"
+        if text not in seen:
+            seen.add(text)
+            _err(f"openimp: note: {deck or 'openimp'}: a computation gave a warning ({text}, "
+                 f"in {os.path.basename(w.filename)}:{w.lineno})")
+
+
+class _LogNotes(logging.Handler):
+    """Log records of libraries (matplotlib, numba) as located notes, once each."""
+
+    def __init__(self, deck: str | None) -> None:
+        super().__init__(logging.WARNING)
+        self.deck = deck
+        self.seen: set[str] = set()
+
+    def emit(self, record: logging.LogRecord) -> None:
+        from openimp.files import printable
+
+        text = printable(f"{record.name}: {record.getMessage()}", 200)
+        if text not in self.seen:
+            self.seen.add(text)
+            _err(f"openimp: note: {self.deck or 'openimp'}: {text}")
+
+
+def _dispatch(argv: Sequence[str] | None) -> int:
+    parser = _parser()
+    args = parser.parse_args(argv)
+    if args.command is None:
+        parser.print_help(sys.stderr)
+        return EXIT_INPUT
+    deck = getattr(args, "deck", None)
+    log = logging.getLogger()
+    handler = _LogNotes(deck)
+    log.addHandler(handler)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            if args.command == "check":
+                return _cmd_check(args)
+            return _cmd_run(args)
+        finally:
+            log.removeHandler(handler)
+            _note_warnings(caught, deck)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``openimp`` command; returns the exit status."""
     try:
-        parser = _parser()
-        args = parser.parse_args(argv)
-        if args.command is None:
-            parser.print_help(sys.stderr)
-            return EXIT_INPUT
-        if args.command == "check":
-            return _cmd_check(args)
-        return _cmd_run(args)
+        return _dispatch(argv)
     except SystemExit as exc:  # argparse --help / --version / usage errors
         code = exc.code
         return code if isinstance(code, int) else (0 if code is None else EXIT_INPUT)
     except KeyboardInterrupt:
-        print("openimp: interrupted", file=sys.stderr)
-        return 130
+        _err("openimp: interrupted (Ctrl-C)")
+        return EXIT_INTERRUPTED
     except BrokenPipeError:
         return EXIT_OK
     except Exception as exc:
@@ -223,13 +363,13 @@ def main(argv: Sequence[str] | None = None) -> int:
 
         if isinstance(exc, InputError):
             for line in _errors(exc):
-                print(line, file=sys.stderr)
+                _err(line)
             return EXIT_INPUT
         if isinstance(exc, OSError):
-            print(f"openimp: error: {exc}", file=sys.stderr)
-            return EXIT_INPUT
-        print(f"openimp: internal error ({type(exc).__name__}: {exc}); please report it with "
-              "the deck", file=sys.stderr)
+            _err(f"openimp: error: {exc}")
+            return EXIT_FAILURE
+        _err(f"openimp: internal error ({type(exc).__name__}: {exc}); please report it with "
+             "the deck")
         return EXIT_FAILURE
 
 

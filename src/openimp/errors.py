@@ -18,7 +18,8 @@ class OpenIMPError(Exception):
 class InputError(OpenIMPError, ValueError):
     """Bad model data or bad input: the message says which element and what to do.
 
-    ``where`` optionally holds ``(file, line)`` of the offending statement.
+    ``where`` optionally holds ``(file, line)`` of the offending statement; a
+    line of 0 means the file as a whole (shown as ``file: message``).
     """
 
     def __init__(self, message: str, where: tuple[str, int] | None = None) -> None:
@@ -28,8 +29,21 @@ class InputError(OpenIMPError, ValueError):
     def __str__(self) -> str:
         msg = super().__str__()
         if self.where is not None:
+            if self.where[1] <= 0:
+                return f"{self.where[0]}: {msg}"
             return f"{self.where[0]}:{self.where[1]}: {msg}"
         return msg
+
+
+class OutputError(OpenIMPError, OSError):
+    """A result file cannot be written; ``path`` names it (never a temporary file)."""
+
+    def __init__(self, message: str, path: str) -> None:
+        super().__init__(message)
+        self.path = path
+
+    def __str__(self) -> str:
+        return str(self.args[0])
 
 
 class AnalysisError(OpenIMPError, RuntimeError):

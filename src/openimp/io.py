@@ -5,7 +5,7 @@ A :class:`Table` is what a request produces: the request that asked for it
 rows of numbers in the units the listing prints (degrees where IMP prints
 degrees).  :class:`Run` gathers the tables of one EXECUTE.  Writers produce
 the JSON schema of DESIGN.md, one CSV file per table and IMP's STORE file;
-files are written whole or not at all (to a temporary name, then renamed).
+files are written whole or not at all (:mod:`openimp.files`).
 """
 
 from __future__ import annotations
@@ -15,13 +15,16 @@ import json
 import math
 import os
 import re
-import tempfile
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
+from io import StringIO
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from openimp import files
+from openimp.errors import OutputError
 
 
 @dataclass
@@ -36,7 +39,10 @@ class Table:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dict (NaN written as null)."""
-        rows = [[None if not math.isfinite(v) else float(v) for v in r] for r in self.rows]
+        arr = np.asarray(self.rows, dtype=float)
+        rows = arr.tolist()
+        if not np.all(np.isfinite(arr)):
+            rows = [[v if math.isfinite(v) else None for v in r] for r in rows]
         return {"request": self.request, "item": self.item, "columns": list(self.columns),
                 "units": list(self.units), "rows": rows}
 
@@ -53,6 +59,8 @@ class Run:
     failure: str = ""
     #: requests that could not be produced (analyses not built yet), one message each
     unsupported: list[str] = field(default_factory=list)
+    #: set when the user interrupted the run (Ctrl-C); what was solved is kept
+    interrupted: bool = False
 
     @property
     def ok(self) -> bool:
@@ -77,58 +85,78 @@ class Run:
             d["failure"] = self.failure
         if self.unsupported:
             d["unsupported"] = list(self.unsupported)
+        if self.interrupted:
+            d["interrupted"] = True
         return d
 
 
-def atomic_write(path: str | os.PathLike[str], text: str) -> None:
-    """Write ``text`` to ``path`` whole or not at all (temporary file, then rename)."""
-    _atomic_write(Path(path), text)
+def atomic_write(path: str | os.PathLike[str], text: str | bytes) -> Path:
+    """Write ``text`` to ``path`` whole or not at all (see :func:`openimp.files.atomic_write`).
+
+    The file gets the permissions ``open()`` would give it (the umask
+    applies); no temporary file is left behind.  Raises
+    :class:`~openimp.errors.OutputError` naming ``path`` when it cannot be
+    written.
+    """
+    return files.atomic_write(path, text)
 
 
-def _atomic_write(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` whole or not at all."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
-    try:
-        with os.fdopen(fd, "w", newline="") as f:
-            f.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-
-
-def write_json(path: str | os.PathLike[str], runs: Sequence[Run]) -> None:
-    """Write every run's tables in the DESIGN.md JSON schema, full precision."""
+def json_text(runs: Sequence[Run]) -> str:
+    """The DESIGN.md JSON document of ``runs`` (full precision, NaN as null)."""
     doc = {"runs": [r.to_dict() for r in runs]}
-    _atomic_write(Path(path), json.dumps(doc, allow_nan=False) + "\n")
+    return json.dumps(doc, allow_nan=False) + "\n"
+
+
+def write_json(path: str | os.PathLike[str], runs: Sequence[Run]) -> Path:
+    """Write every run's tables in the DESIGN.md JSON schema, full precision."""
+    return atomic_write(path, json_text(runs))
 
 
 def _slug(s: str) -> str:
     return re.sub(r"[^A-Za-z0-9]+", "_", s).strip("_").lower() or "table"
 
 
-def write_csv(directory: str | os.PathLike[str], runs: Sequence[Run]) -> list[Path]:
-    """One CSV file per table (``run<k>_<request>_<item>.csv``); returns the paths."""
-    out = Path(directory)
-    paths: list[Path] = []
+def csv_files(runs: Sequence[Run]) -> list[tuple[str, str]]:
+    """``(file name, CSV text)`` of every table (``run<k>_<request>_<item>.csv``)."""
+    out: list[tuple[str, str]] = []
+    names: set[str] = set()
     for k, run in enumerate(runs, start=1):
         for t in run.tables:
-            p = out / f"run{k}_{_slug(t.request)}_{_slug(t.item)}.csv"
-            n = 2
-            while p in paths:
-                p = out / f"run{k}_{_slug(t.request)}_{_slug(t.item)}_{n}.csv"
-                n += 1
-            from io import StringIO
+            stem = f"run{k}_{_slug(t.request)}_{_slug(t.item)}"
+            name, n = f"{stem}.csv", 2
+            while name in names:
+                name, n = f"{stem}_{n}.csv", n + 1
+            names.add(name)
+            out.append((name, _csv_text(t)))
+    return out
 
-            buf = StringIO()
-            w = csv.writer(buf)
-            w.writerow([f"{c} [{u}]" if u else c for c, u in zip(t.columns, t.units)])
-            for r in t.rows:
-                w.writerow([repr(float(v)) for v in r])
-            _atomic_write(p, buf.getvalue())
-            paths.append(p)
+
+def _csv_text(t: Table) -> str:
+    """One table as CSV: a header ``column [unit]``, then rows of full-precision numbers."""
+    buf = StringIO()
+    w = csv.writer(buf)
+    w.writerow([f"{c} [{u}]" if u else c for c, u in zip(t.columns, t.units)])
+    rows = np.asarray(t.rows, dtype=float)
+    w.writerows([[repr(v) for v in r] for r in rows.tolist()])
+    return buf.getvalue()
+
+
+def write_csv(directory: str | os.PathLike[str], runs: Sequence[Run]) -> list[Path]:
+    """One CSV file per table (``run<k>_<request>_<item>.csv``); returns the paths.
+
+    Every file that can be written is written; the first
+    :class:`~openimp.errors.OutputError` is raised after the others.
+    """
+    out = Path(directory)
+    paths: list[Path] = []
+    first: OutputError | None = None
+    for name, text in csv_files(runs):
+        try:
+            paths.append(atomic_write(out / name, text))
+        except OutputError as exc:
+            first = first or exc
+    if first is not None:
+        raise first
     return paths
 
 

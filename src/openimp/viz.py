@@ -35,7 +35,6 @@ import json
 import math
 import os
 import re
-import tempfile
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -47,6 +46,7 @@ from matplotlib.figure import Figure
 from matplotlib.patches import FancyArrowPatch
 
 from openimp.errors import InputError
+from openimp.files import atomic_write_with
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -406,22 +406,10 @@ def _prepare(scene: Scene) -> _Prepared:
 
 
 def _atomic(path: PathLike, write: Callable[[str], None]) -> Path:
-    """Call ``write(tmp)`` on a temporary file beside ``path``, then rename it over ``path``."""
-    p = Path(path)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=p.parent, prefix=f".{p.name}.", suffix=p.suffix or ".tmp")
-    os.close(fd)
-    try:
-        write(tmp)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; give the usual permissions
-        os.replace(tmp, p)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-    return p
+    """Call ``write(tmp)`` on a temporary file beside ``path``, then rename it over
+    ``path`` (:func:`openimp.files.atomic_write_with`: open()'s permissions, no
+    temporary file left behind)."""
+    return atomic_write_with(path, write)
 
 
 # --------------------------------------------------------------------------- matplotlib

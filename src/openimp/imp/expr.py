@@ -36,7 +36,9 @@ from typing import Any
 
 import numpy as np
 
+from openimp import limits
 from openimp.errors import InputError, OpenIMPError
+from openimp.files import quote, quote_path, read_text
 from openimp.imp.lexer import (
     _NUMBER_RE,
     Scanner,
@@ -88,9 +90,9 @@ FUNCTIONS: dict[str, str] = {
 _ONE_ARG = frozenset({"ABS", "SIN", "COS", "TAN", "ASIN", "ACOS", "EXP", "LOG", "LOG10", "SQRT"})
 _REFS = frozenset({"POSITION", "VELOCITY", "ACCEL", "FORCE"})
 _LEVELS = ("+", "-", "*", "/", "@")  # lowest priority first
-MAX_NESTING = 40  # parentheses and function calls inside one another
-MAX_DEPTH = 200  # depth of the expression tree (chains of operators included)
-MAX_CHAIN = 50  # VALUEs using VALUEs using VALUEs ...
+MAX_NESTING = limits.MAX_NESTING  # parentheses and function calls inside one another
+MAX_DEPTH = limits.MAX_EXPRESSION_DEPTH  # depth of the tree (chains of operators included)
+MAX_CHAIN = limits.MAX_VALUE_CHAIN  # VALUEs using VALUEs using VALUEs ...
 
 
 class SimulationStop(OpenIMPError):  # noqa: N818 - a signal, not an error
@@ -222,7 +224,8 @@ class _Parser:
         depth = _depth(node)
         if depth > MAX_DEPTH:
             raise self.error(f"the expression is too long: its tree is {depth} levels deep "
-                             f"(at most {MAX_DEPTH}); split it into several VALUEs", first)
+                             f"(at most {MAX_DEPTH}, limit MAX_EXPRESSION_DEPTH); split it into "
+                             "several VALUEs", first)
         if tok is not None:
             if tok.kind == "RPAREN":
                 raise self.error(f"unbalanced ')' at column {tok.col}: parentheses do not "
@@ -304,7 +307,8 @@ class _Parser:
         self.nest += 1
         if self.nest > MAX_NESTING:
             raise self.error(f"parentheses are nested more than {MAX_NESTING} deep at column "
-                             f"{tok.col}; split the expression into several VALUEs", tok)
+                             f"{tok.col} (limit MAX_NESTING); split the expression into several "
+                             "VALUEs", tok)
 
     def element(self, func: str) -> str:
         tok = self.sc.next()
@@ -456,6 +460,8 @@ class FourierTable:
     def __post_init__(self) -> None:
         if not self.ordinates:
             raise InputError(f"TABLE {self.source}: the table has no ordinates")
+        if not (math.isfinite(self.xmin) and math.isfinite(self.xmax)):
+            raise InputError(f"TABLE {self.source}: min x and max x must be finite numbers")
         if not self.xmax > self.xmin:
             raise InputError(f"TABLE {self.source}: max x ({self.xmax:g}) must be greater than "
                              f"min x ({self.xmin:g}) (lines 1 and 2 of the file)")
@@ -468,6 +474,16 @@ class FourierTable:
         if n % 2 == 0:
             a[-1] = c[-1].real
             b[-1] = 0.0
+        top = float(max(np.max(np.abs(a)), np.max(np.abs(b))))
+        if top > 0.0 and len(a) > 1:
+            # the second derivative scales as (j 2 pi / period)^2 times a coefficient
+            size = 2.0 * math.log10((len(a) - 1) * 2.0 * math.pi) - 2.0 * math.log10(
+                self.period) + math.log10(top)
+            if size > 300.0:
+                raise InputError(f"TABLE {self.source}: the period (max x - min x = "
+                                 f"{self.period:g}) is too short for {n} ordinates of this "
+                                 "size: the derivatives of the table overflow; give x in "
+                                 "other units")
         object.__setattr__(self, "_a", a)
         object.__setattr__(self, "_b", b)
 
@@ -486,7 +502,10 @@ class FourierTable:
         if not math.isfinite(x):
             return _UNDEF
         w = 2.0 * math.pi / self.period
-        s = w * (x - self.xmin)
+        u = (x - self.xmin) / self.period  # periods from xmin
+        if not math.isfinite(u):
+            return _UNDEF
+        s = 2.0 * math.pi * (u - math.floor(u))  # the same phase, reduced to one period
         j = np.arange(len(self._a))
         cos, sin = np.cos(j * s), np.sin(j * s)
         f = float(np.dot(self._a, cos) + np.dot(self._b, sin))
@@ -500,41 +519,69 @@ class FourierTable:
 
 
 _TABLE_CACHE: dict[str, tuple[float, FourierTable]] = {}
+#: (path, roots) pairs already checked to lie inside their roots
+_TABLE_ALLOWED: set[tuple[str, tuple[str, ...]]] = set()
 _SIGNED_NUMBER = f"[+-]?{_NUMBER_RE.pattern}"
 
 
-def load_table(path: str | os.PathLike[str], where: tuple[str, int] | None = None) -> FourierTable:
+def load_table(path: str | os.PathLike[str], where: tuple[str, int] | None = None,
+               roots: tuple[str, ...] | None = None) -> FourierTable:
     """Read a TABLE file: min x, max x, then the ordinates, one number per line.
 
-    Blank lines are skipped.  Problems raise :class:`InputError` located in the
-    table file (or at ``where`` when the file cannot be read).
+    Blank lines are skipped.  The file is a regular text file of at most
+    ``MAX_FILE_BYTES`` inside ``roots`` (when given) with at most
+    ``MAX_TABLE_ORDINATES`` ordinates, each within ``±MAX_NUMBER``.  Problems
+    raise :class:`InputError` located in the table file (or at ``where`` when
+    the file cannot be read).
     """
     p = os.fspath(path)
     try:
         mtime = os.path.getmtime(p)
-        cached = _TABLE_CACHE.get(p)
-        if cached is not None and cached[0] == mtime:
-            return cached[1]
-        with open(p, encoding="utf-8", errors="replace") as fh:
-            text = fh.read()
-    except OSError as exc:
-        raise InputError(f"TABLE file '{p}' cannot be read ({exc.strerror or exc}); check the "
-                         "name, which is relative to the deck's directory", where) from None
+    except OSError:
+        mtime = None
+    cached = _TABLE_CACHE.get(p)
+    if cached is not None and mtime is not None and cached[0] == mtime and (
+            roots is None or (p, roots) in _TABLE_ALLOWED):
+        return cached[1]
+    text = read_text(p, "TABLE", where, roots)
+    table = _parse_table(text, p)
+    if mtime is not None:
+        _TABLE_CACHE[p] = (mtime, table)
+    if roots is not None:
+        _TABLE_ALLOWED.add((p, roots))
+    return table
+
+
+def _parse_table(text: str, p: str) -> FourierTable:
+    """The table in the text of file ``p`` (see :func:`load_table`)."""
     numbers: list[float] = []
+    most = limits.MAX_TABLE_ORDINATES + 2
     for lineno, raw in enumerate(text.split("\n"), start=1):
         for word in raw.replace(",", " ").split():
             m = _NUMBER_RE.fullmatch(word.lstrip("+-")) if word[:1] in "+-" else \
                 _NUMBER_RE.fullmatch(word)
             if m is None or not math.isfinite(float(word)):
-                raise InputError(f"TABLE file: '{word}' is not a number; the file holds min x, "
-                                 "max x and then the ordinates, one number per line", (p, lineno))
-            numbers.append(float(word))
+                raise InputError(f"TABLE file: {quote(word, 20)} is not a number; the file holds "
+                                 "min x, max x and then the ordinates, one number per line",
+                                 (p, lineno))
+            value = float(word)
+            if abs(value) > limits.MAX_NUMBER:
+                raise InputError(f"TABLE file: the number {quote(word, 20)} is beyond "
+                                 f"±{limits.number_text(limits.MAX_NUMBER)} (limit MAX_NUMBER)",
+                                 (p, lineno))
+            numbers.append(value)
+            if len(numbers) > most:
+                raise InputError(f"TABLE file: more than {limits.MAX_TABLE_ORDINATES} ordinates "
+                                 "(limit MAX_TABLE_ORDINATES)", (p, lineno))
     if len(numbers) < 3:
-        raise InputError(f"TABLE file '{p}' holds {len(numbers)} numbers; it needs min x, max x "
-                         "and at least one ordinate", (p, 1))
-    table = FourierTable(numbers[0], numbers[1], tuple(numbers[2:]), p)
-    _TABLE_CACHE[p] = (mtime, table)
-    return table
+        raise InputError(f"TABLE file {quote_path(p)} holds {len(numbers)} numbers; it needs min "
+                         "x, max x and at least one ordinate", (p, 1))
+    try:
+        return FourierTable(numbers[0], numbers[1], tuple(numbers[2:]), p)
+    except InputError as exc:
+        if exc.where is None:
+            exc.where = (p, 1)
+        raise
 
 
 # --------------------------------------------------------------------------- expression
@@ -546,7 +593,8 @@ class Expression:
 
     ``name`` is the VALUE name (significant form), ``source`` the expression
     text, ``root`` the tree, ``file``/``line`` its location, ``base_dir`` the
-    directory TABLE file names are relative to.
+    directory TABLE file names are relative to, ``read_roots`` (when given)
+    the only folders TABLE files may be read from.
     """
 
     name: str
@@ -555,6 +603,7 @@ class Expression:
     file: str
     line: int
     base_dir: str | None = None
+    read_roots: tuple[str, ...] | None = field(default=None, compare=False)
 
     @property
     def label(self) -> str:
@@ -625,14 +674,15 @@ class Expression:
 
     def load_tables(self) -> list[FourierTable]:
         """Read every TABLE file of the expression now (raises InputError on problems)."""
-        return [load_table(self.table_path(n.filename), (self.file, n.line))
+        return [load_table(self.table_path(n.filename), (self.file, n.line), self.read_roots)
                 for n in self.nodes() if isinstance(n, Table)]
 
     def table(self) -> FourierTable | None:
         """The table if the whole expression is exactly one ``TABLE(x): file``
         (as DATA CAM and DATA SLOT require), else ``None``."""
         if isinstance(self.root, Table):
-            return load_table(self.table_path(self.root.filename), (self.file, self.root.line))
+            return load_table(self.table_path(self.root.filename), (self.file, self.root.line),
+                              self.read_roots)
         return None
 
 
@@ -673,6 +723,7 @@ class _Evaluator:
         self.memo: dict[str, Jet] = {}
         self.stack: list[str] = []
         self.expr: Expression | None = None
+        self.depth = 0
 
     def run(self, expr: Expression) -> Jet:
         outer, self.expr = self.expr, expr
@@ -706,6 +757,20 @@ class _Evaluator:
         return NAN if v is None else float(v)
 
     def ev(self, node: Node) -> Jet:
+        self.depth += 1
+        try:
+            if self.depth > limits.MAX_EVAL_DEPTH:
+                assert self.expr is not None
+                raise InputError(f"{self.expr.label}: the evaluation descends more than "
+                                 f"{limits.MAX_EVAL_DEPTH} levels through expressions and the "
+                                 "VALUEs they use (limit MAX_EVAL_DEPTH); write the chain of "
+                                 "VALUEs with fewer, shallower expressions", self.where(node))
+            return self.node(node)
+        finally:
+            self.depth -= 1
+
+    def node(self, node: Node) -> Jet:
+        """The jet of one node (see :meth:`ev`)."""
         if isinstance(node, Num):
             return (node.value, 0.0, 0.0)
         if isinstance(node, BinOp):
@@ -727,7 +792,8 @@ class _Evaluator:
             return self.ev(node.neg if c < 0 else node.zero if c == 0 else node.pos)
         if isinstance(node, Table):
             assert self.expr is not None
-            table = load_table(self.expr.table_path(node.filename), self.where(node))
+            table = load_table(self.expr.table_path(node.filename), self.where(node),
+                               self.expr.read_roots)
             x0, x1, x2 = self.ev(node.arg)
             f, f1, f2 = table.derivatives(x0)
             return (f, f1 * x1, f2 * x1 * x1 + f1 * x2)

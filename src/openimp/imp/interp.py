@@ -36,7 +36,9 @@ from typing import Any
 
 import numpy as np
 
+from openimp import limits
 from openimp.errors import InputError
+from openimp.files import check_readable, quote_path, real_roots
 from openimp.imp.expr import Expression
 from openimp.imp.jointmap import IMP_JOINTS, bevel_frames, placement_frames
 from openimp.imp.parser import JOINT_DOF, Statement, parse_file
@@ -249,6 +251,16 @@ def _xyz(v: Any) -> np.ndarray:
     return np.asarray(v, dtype=float).reshape(3)
 
 
+def _direction(v: Any) -> np.ndarray | None:
+    """``v`` scaled to unit length without overflow (None for the zero vector)."""
+    a = np.asarray(v, dtype=float)
+    big = float(np.max(np.abs(a)))
+    if big == 0.0:
+        return None
+    a = a / big
+    return a / float(np.linalg.norm(a))
+
+
 def _inv(T: np.ndarray) -> np.ndarray:
     out = np.eye(4)
     out[:3, :3] = T[:3, :3].T
@@ -261,13 +273,16 @@ class Interpreter:
 
     ``events`` records, in order, what the batch run prints and does:
     ``("text", str)`` lines, ``("run", RunSpec)``, ``("draw", State, Where)``,
-    ``("reset", None)``, ``("print_on", filename or None)``,
-    ``("store_input", (filename, lines))``.
+    ``("reset", None)``, ``("print_on", (filename, where) or None)``,
+    ``("store_input", (filename, lines, where))``.  File names never leave
+    the output folder (absolute names and ``..`` are input errors).
     """
 
-    def __init__(self, base_dir: str | None = None) -> None:
+    def __init__(self, base_dir: str | None = None,
+                 read_roots: tuple[str, ...] | None = None) -> None:
         self.state = State()
         self.base_dir = base_dir
+        self.read_roots = read_roots
         self.events: list[tuple[str, Any]] = []
         self.errors: list[InputError] = []
         self.warnings: list[DeckWarning] = []
@@ -275,7 +290,7 @@ class Interpreter:
         self.runs: list[RunSpec] = []
         self.echo = False
         self.ended = False
-        self.store_input: tuple[str, list[str]] | None = None
+        self.store_input: tuple[str, list[str], Where] | None = None
         self.statements: list[Statement] = []
         self._stmt: Statement | None = None
 
@@ -285,8 +300,11 @@ class Interpreter:
         self.events.append(("text", line))
 
     def msg(self, message: str) -> None:
-        """Print an IMP message ``*** message ***``."""
-        self.text(f"*** {message} ***")
+        """Print an IMP message ``*** file:line: message ***`` (located at the
+        statement being carried out, if any)."""
+        stmt = self._stmt
+        loc = f"{stmt.file}:{stmt.line}: " if stmt is not None and stmt.line > 0 else ""
+        self.text(f"*** {loc}{message} ***")
 
     def warn(self, message: str, where: Where | None = None) -> None:
         """A located warning: kept in :attr:`warnings` and printed as an IMP message."""
@@ -294,7 +312,7 @@ class Interpreter:
         loc = where if where is not None else (stmt.where if stmt is not None else None)
         w = DeckWarning(message, loc)
         self.warnings.append(w)
-        self.msg(str(w))
+        self.text(f"*** {w} ***")  # already located: not through msg()
 
     def _written(self, first: int, last: int | None = None) -> list[tuple[str, str]]:
         """(significant, written) forms of the current statement's names ``[first:last]``."""
@@ -357,7 +375,7 @@ class Interpreter:
             self._stmt = stmt
             echo = self.echo and not (stmt.keyword == "PRINT INPUT")
             if echo:
-                for line in stmt.text.splitlines() or [""]:
+                for line in stmt.text.split("\n") or [""]:
                     self.text(line)
             if self.store_input is not None and stmt.keyword not in ("STORE INPUT",):
                 self.store_input[1].append(stmt.text)
@@ -470,8 +488,7 @@ class Interpreter:
         name = stmt.fields["filename"]
         path = name if os.path.isabs(name) or not self.base_dir else os.path.join(
             self.base_dir, name)
-        if not os.path.isfile(path):
-            raise self.error(f"the solid file '{path}' does not exist")
+        check_readable(path, f"{stmt.keyword} statement", stmt.where, self.read_roots)
         self._spelling("solid", self._written(0, 1), self.state.extras.get("solids", {}))
         self.state.extras.setdefault("solids", {})[stmt.fields["solid"]] = {
             "file": path, "where": stmt.where}
@@ -642,6 +659,7 @@ class Interpreter:
         if f["ratio"] == -1.0:
             raise self.error("ratio -1 (an internal gear of the same size) has no centre "
                              "distance")
+        self._ratio_bound(f["ratio"], "gear")
         d = f.get("distance")
         if d is not None and d < 0:
             raise self.error("the centre distance must be positive")
@@ -655,10 +673,20 @@ class Interpreter:
         if f["ratio"] <= 0.0:
             raise self.error("the bevel ratio (teeth of the first / teeth of the second) must "
                              "be positive")
+        self._ratio_bound(f["ratio"], "bevel")
         p: dict[str, Any] = {"ratio": f["ratio"]}
         if f["radius"]:
             p["radius"] = f["radius"]
         self._params(stmt, "BEVEL", p)
+
+    def _ratio_bound(self, ratio: float, what: str) -> None:
+        """Refuse a gear ratio beyond MAX_GEAR_RATIO (or below its inverse)."""
+        top = limits.MAX_GEAR_RATIO
+        if not 1.0 / top <= abs(ratio) <= top or abs(1.0 + ratio) < 1.0 / top:
+            raise self.error(f"the {what} ratio {limits.number_text(ratio)} is out of range: "
+                             f"|ratio| must lie between {limits.number_text(1.0 / top)} and "
+                             f"{limits.number_text(top)} and |1 + ratio| be at least "
+                             f"{limits.number_text(1.0 / top)} (limit MAX_GEAR_RATIO)")
 
     def _data_rack(self, stmt: Statement) -> None:
         if stmt.fields["radius"] == 0.0:
@@ -803,10 +831,21 @@ class Interpreter:
         if ij.nvar != 1 or ij.drive[0] is None:
             raise self.error(f"joint {jd.name} is a {jd.keyword} with {ij.nvar} variables; "
                              "DATA POSITION drives single-variable joints only: use DATA MOTION")
+        nsteps = int(f["nsteps"])
+        if nsteps < 0:
+            raise self.error(f"the number of steps ({nsteps}) must not be negative")
+        if nsteps > limits.MAX_STEPS:
+            raise self.error(f"{nsteps} steps are more than {limits.MAX_STEPS} (limit "
+                             "MAX_STEPS); use fewer, larger steps")
+        end = abs(f["start"]) + abs(f["increment"]) * nsteps
+        if end > limits.MAX_NUMBER:
+            raise self.error(f"the joint would travel to {limits.number_text(end)} (start + "
+                             f"increment x steps), beyond ±{limits.number_text(limits.MAX_NUMBER)}"
+                             " (limit MAX_NUMBER)")
         if jd.name in st.inputs:
             self.msg(f"Input motion for joint {jd.name} 1 is redefined.")
         st.inputs[jd.name] = InputDef(jd.name, "POSITION", stmt.where, start=f["start"],
-                                      increment=f["increment"], nsteps=int(f["nsteps"]))
+                                      increment=f["increment"], nsteps=nsteps)
 
     def _rate(self, stmt: Statement, key: str, label: str) -> None:
         st = self.state
@@ -818,9 +857,14 @@ class Interpreter:
         if inp is None or inp.kind != "POSITION":
             raise self.error(f"joint {jd.name} has no DATA POSITION; DATA {label} applies to a "
                              "DATA POSITION input, so give DATA POSITION first")
+        value = stmt.fields["velocity" if key == "velocity" else "acceleration"]
+        if abs(value) > limits.MAX_RATE:
+            raise self.error(f"the {label.lower()} {limits.number_text(value)} is beyond "
+                             f"±{limits.number_text(limits.MAX_RATE)} (limit MAX_RATE): "
+                             "accelerations grow as its square and would overflow")
         if getattr(inp, "has_" + key):
             self.msg(f"Input {label.lower()} for joint {jd.name} is redefined.")
-        setattr(inp, key, stmt.fields["velocity" if key == "velocity" else "acceleration"])
+        setattr(inp, key, value)
         setattr(inp, "has_" + key, True)
         st.extras["rates_given"] = True
 
@@ -872,6 +916,13 @@ class Interpreter:
             raise self.error("times must not be negative")
         if f["printstep"] <= 0:
             raise self.error("the print step (third number) must be positive")
+        steps = f["final"] / f["printstep"]
+        if steps > limits.MAX_STEPS:
+            raise self.error(f"the final time {limits.number_text(f['final'])} in print steps of "
+                             f"{limits.number_text(f['printstep'])} gives "
+                             f"{limits.number_text(steps)} output steps, more than "
+                             f"{limits.MAX_STEPS} (limit MAX_STEPS); use a larger print step "
+                             "or a shorter final time")
         self.state.time = (f["final"], f["minstep"], f["printstep"])
         self.state.time_where = stmt.where
 
@@ -882,8 +933,8 @@ class Interpreter:
         if f["view"] is not None:
             g.view = f["view"]
         else:
-            eye, up = np.array(f["eye"]), np.array(f["up"])
-            if np.linalg.norm(np.cross(eye, up)) < 1e-12:
+            eye, up = _direction(f["eye"]), _direction(f["up"])
+            if eye is None or up is None or np.linalg.norm(np.cross(eye, up)) < 1e-12:
                 raise self.error("the eye position and the up-vector must not be parallel")
             g.view = (tuple(f["eye"]), tuple(f["up"]))
 
@@ -937,12 +988,14 @@ class Interpreter:
         elif kw == "PRINT INPUT":
             self.echo = True
         elif kw == "PRINT ON":
-            self.events.append(("print_on", f.get("filename") or "prt.dat"))
+            name = self._output_name(f.get("filename") or "prt.dat")
+            self.events.append(("print_on", (name, stmt.where)))
         elif kw == "PRINT OFF":
             self.events.append(("print_on", None))
         elif kw == "STORE INPUT":
             self._end_store_input()
-            self.store_input = (f.get("filename") or "input.dat", [])
+            self.store_input = (self._output_name(f.get("filename") or "input.dat"), [],
+                                stmt.where)
             self.echo = False
         elif kw == "CLEAR":
             self._end_store_input()
@@ -956,6 +1009,19 @@ class Interpreter:
             self.ended = True
         else:  # pragma: no cover - every control keyword of the parser is above
             raise self.error(f"{kw} is not handled")
+
+    def _output_name(self, name: str) -> str:
+        """A PRINT ON / STORE INPUT file name, refused when it would leave the output
+        folder (an absolute path, a ``..`` component) or is not a plain name."""
+        parts = name.replace("\\", "/").split("/")
+        if os.path.isabs(name) or name.startswith(("/", "\\", "~")) or ".." in parts:
+            raise self.error(f"the file name {quote_path(name)} leaves the output folder: files "
+                             "are written only inside the --out folder (or the deck's folder); "
+                             "give a name relative to it, without '..'")
+        if any(not ch.isprintable() for ch in name) or not name.strip():
+            raise self.error(f"the file name {quote_path(name)} holds control characters; give "
+                             "a plain file name")
+        return name
 
     def _end_store_input(self) -> None:
         if self.store_input is not None:
@@ -972,13 +1038,18 @@ class Interpreter:
                 self.msg("ZERO (FORCE) is redefined.")
             self.state.zero["FORCE"] = (f["force_error"], f["percent_error"])
             return
-        tol = f["tolerance"]
-        if tol <= 0:
-            raise self.error("the tolerance must be positive")
+        try:
+            tol = limits.check_tolerance(f["tolerance"], "the tolerance")
+        except InputError as exc:
+            raise self.error(str(exc)) from None
         n = f.get("nsteps")
         old = self.state.tolerance(what)
         if n is None or n <= 0:
             n = old[1]
+        elif n > limits.MAX_ITERATIONS:
+            raise self.error(f"{n} iterations are more than {limits.MAX_ITERATIONS} (limit "
+                             "MAX_ITERATIONS); Newton's method converges in a few, or not at "
+                             "all")
         self.state.zero[what] = (tol, n)
 
     def _identify(self, types: list[str]) -> None:
@@ -1337,7 +1408,7 @@ class Deck:
                 validate(spec)
             except InputError as exc:
                 errors.append(exc)
-        if not self.specs:
+        if not self.specs and self._state.joints:  # no EXECUTE: check what stands at the end
             try:
                 build_model(self._state, self._where)
             except InputError as exc:
@@ -1347,37 +1418,92 @@ class Deck:
     def run(self, out_dir: str | os.PathLike[str] | None = None,
             echo: Callable[[str], None] | None = None,
             progress: Callable[[int, int, int], None] | None = None,
-            notes: Callable[[str], None] | None = None) -> list[Any]:
+            notes: Callable[[str], None] | None = None,
+            overwrite: bool = False,
+            problems: Callable[[str], None] | None = None) -> list[Any]:
         """Run every EXECUTE in order; returns the list of :class:`~openimp.io.Run`.
 
         ``echo`` receives every printed line (messages, banners, PRINT output,
-        listings) in order; ``out_dir`` receives STORE files, plots and
-        animations; ``progress(run, done, total)`` is called while solving;
-        ``notes`` receives notes for stderr.
+        listings) in order; ``out_dir`` receives STORE, PRINT ON and STORE INPUT
+        files, plots and animations (without it the files go to the deck's
+        folder and graphics are not rendered); a file that exists and was not
+        written by this run is replaced only with ``overwrite``;
+        ``progress(run, done, total)`` is called while solving; ``notes``
+        receives notes for stderr and ``problems`` (default: ``notes``) one
+        message per file refused or not written.
         """
         from openimp.imp.runner import run_deck
 
-        return run_deck(self, out_dir=out_dir, echo=echo, progress=progress, notes=notes)
+        return run_deck(self, out_dir=out_dir, echo=echo, progress=progress, notes=notes,
+                        overwrite=overwrite, problems=problems)
 
     def __repr__(self) -> str:
         return (f"Deck({self.path!r}: {len(self.statements)} statements, "
                 f"{len(self.specs)} EXECUTE)")
 
 
-def load(path: str | os.PathLike[str], check: bool = True) -> Deck:
+def _deck_problem(p: str) -> str | None:
+    """Why ``p`` cannot be read as a deck (None when it is a regular file)."""
+    import stat
+
+    if not os.path.lexists(p):
+        return "the deck file does not exist"
+    try:
+        st = os.stat(p)
+    except OSError as exc:
+        return f"the deck cannot be read ({exc.strerror or type(exc).__name__})"
+    if stat.S_ISDIR(st.st_mode):
+        return "the deck is a directory, not a file; give the deck file's name"
+    if not stat.S_ISREG(st.st_mode):
+        return ("the deck is not a regular file (a device, pipe or socket); give the deck "
+                "file's name")
+    return None
+
+
+_EMPTY_KEYWORDS = ("REMARK", "TITLE", "END")
+
+
+def _empty_deck(p: str, statements: list[Statement]) -> InputError | None:
+    """The error of a deck that holds nothing to build or run (None otherwise)."""
+    if not statements:
+        return InputError("the deck holds no statement (it is empty, blank or only remarks); a "
+                          "deck defines joints (ZPIN, REVOLUTE, ...), gives their DATA and ends "
+                          "with EXECUTE and END", (p, 0))
+    if all(s.keyword in _EMPTY_KEYWORDS for s in statements):
+        ended = statements[-1].keyword == "END" and statements[-1].file == p
+        return InputError("the deck holds only REMARK and TITLE statements"
+                          + (" before END" if ended else "") + ": nothing to build or run; a "
+                          "deck defines joints (ZPIN, REVOLUTE, ...), gives their DATA and ends "
+                          "with EXECUTE and END", (p, 0))
+    return None
+
+
+def load(path: str | os.PathLike[str], check: bool = True,
+         allow_read: Iterable[str | os.PathLike[str]] = ()) -> Deck:
     """Read an IMP deck and carry out its statements (no analysis is run yet).
 
     Returns a :class:`Deck`; call ``deck.run()`` for the results.  Raises
     :class:`DeckError` listing every input error (each ``file:line: message``);
     with ``check`` (default) the model of every EXECUTE is also built, compiled
-    and validated (mobility against the inputs).
+    and validated (mobility against the inputs).  RECALL INPUT, TABLE and
+    SOLID READ read only inside the deck's folder and the folders of
+    ``allow_read``.
     """
     p = os.fspath(path)
+    problem = _deck_problem(p)
+    if problem is not None:
+        raise DeckError([InputError(problem, (p, 0))])
+    allow = [os.fspath(d) for d in allow_read]
+    roots = real_roots([os.path.dirname(os.path.abspath(p)), *allow])
     errors: list[InputError] = []
-    if not os.path.isfile(p):
-        raise DeckError([InputError(f"the deck file '{p}' does not exist")])
-    statements = parse_file(p, on_error=errors.append)
-    interp = Interpreter(os.path.dirname(p) or None)
+    try:
+        statements = parse_file(p, on_error=errors.append, allow_read=allow)
+    except InputError as exc:  # the deck cannot be read, or a limit stopped the reading
+        raise DeckError([*errors, exc]) from None
+    empty = _empty_deck(p, statements)
+    if empty is not None and not errors:
+        raise DeckError([empty])
+    interp = Interpreter(os.path.dirname(p) or None, roots)
     interp.feed(statements)
     errors.extend(interp.errors)
     errors.sort(key=lambda e: (e.where or ("", 0))[1] if (e.where or ("",))[0] == p else 10**9)

@@ -22,6 +22,7 @@ from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 
 from openimp.errors import InputError
+from openimp.files import printable, quote
 
 __all__ = [
     "BLANKS",
@@ -168,7 +169,7 @@ def split_statements(
         if cut.strip() and dollar < 0:  # text cut from a remark is no loss
             warnings.append(
                 f"Warning: text past column {columns} is ignored on line {lineno}: "
-                f"'{cut.strip()}' (IMP read columns 1-{columns} only)."
+                f"{quote(cut.strip())} (IMP read columns 1-{columns} only)."
             )
         for i, ch in enumerate(useful):
             chars.append(ch)
@@ -233,11 +234,12 @@ class Token:
 
     def describe(self) -> str:
         """A short phrase naming the token for error messages."""
+        text = printable(self.text, 24)
         if self.kind == "NAME":
-            return f"the name {self.text}"
+            return f"the name {text}"
         if self.kind == "NUMBER":
-            return f"the number {self.text}"
-        return f"'{self.text}'"
+            return f"the number {text}"
+        return f"'{text}'"
 
 
 class Scanner:
@@ -331,7 +333,8 @@ class Scanner:
                                  "1.8E308)", pos)
             if junk_end > end:
                 self.stmt.warnings.append(
-                    f"Warning: characters '{text[end:junk_end]}' after the number {num} "
+                    f"Warning: characters {quote(text[end:junk_end])} after the number "
+                    f"{printable(num, 24)} "
                     f"(line {line}, column {col}) are ignored."
                 )
             self.pos = junk_end
@@ -342,9 +345,8 @@ class Scanner:
         if ch == ")":
             self.pos = pos + 1
             return Token("RPAREN", ch, None, pos, pos + 1, line, col, space)
-        shown = ch if ch.isprintable() else repr(ch)
         raise self.error(
-            f"unexpected character '{shown}' at column {col} in this {self.what}: names are "
+            f"unexpected character {quote(ch)} at column {col} in this {self.what}: names are "
             "letters and digits starting with a letter, numbers look like -1.5E-3, and "
             "separators are blank , ; / : = ( + - * @",
             pos,
@@ -385,8 +387,8 @@ class Item:
         if self.implied:
             return "a 0 implied by two separators in a row"
         if self.kind == "WORD":
-            return f"the name {self.text}"
-        return f"the number {self.text}"
+            return f"the name {printable(self.text, 24)}"
+        return f"the number {printable(self.text, 24)}"
 
 
 def reduce_items(tokens: list[Token], stmt: SourceStatement | None = None) -> list[Item]:

@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from openimp.errors import InputError
+from openimp.files import quote, quote_path, read_text, real_roots
 from openimp.imp.expr import (
     FUNCTIONS,
     Call,
@@ -51,6 +52,14 @@ from openimp.imp.lexer import (
     split_lines,
     split_statements,
     tokenize,
+)
+from openimp.limits import (
+    MAX_INPUT_ERRORS,
+    MAX_NUMBER,
+    MAX_READ_BYTES,
+    MAX_RECALL_DEPTH,
+    MAX_STATEMENTS,
+    number_text,
 )
 
 __all__ = [
@@ -354,10 +363,12 @@ class Statement:
 class _Ctx:
     """State of the statement being built."""
 
-    def __init__(self, src: SourceStatement, significant: int | None, base_dir: str | None):
+    def __init__(self, src: SourceStatement, significant: int | None, base_dir: str | None,
+                 roots: tuple[str, ...] | None = None):
         self.src = src
         self.sig_len = significant
         self.base_dir = base_dir
+        self.roots = roots
         self.stmt = Statement(kind="", keyword="", file=src.file, line=src.line,
                               end_line=src.end_line, text=src.source,
                               warnings=src.warnings, remarks=list(src.remarks))
@@ -459,14 +470,18 @@ class _Cursor:
             raise self.error(f"expected a number for the {what}, found {item.describe()}", item)
         self.take()
         value = float(item.value or 0.0)
+        if abs(value) > MAX_NUMBER:
+            raise self.error(f"the {what} {item.text} is beyond ±{number_text(MAX_NUMBER)} "
+                             "(limit MAX_NUMBER): numbers that large overflow the 4x4 matrix "
+                             "arithmetic; use other units", item)
         self.stmt.numbers.append(value)
         return value
 
-    def opt_number(self) -> float | None:
+    def opt_number(self, what: str = "value") -> float | None:
         item = self.peek()
         if item is None or item.kind != "NUMBER":
             return None
-        return self.number("value")
+        return self.number(what)
 
     def datum(self, what: str) -> Datum:
         item = self.peek()
@@ -611,7 +626,7 @@ def _h_data(ctx: _Ctx, cur: _Cursor) -> None:
         f["joint"] = cur.name("joint name")
         f["ratio"] = cur.number("ratio")
         if what == "GEAR":
-            f["distance"] = cur.opt_number()  # optional: computed from the frames
+            f["distance"] = cur.opt_number("centre distance")  # optional: from the frames
         else:
             f["radius"] = cur.number("pitch radius of the second gear")
     elif what in ("RACK", "SCREW"):
@@ -663,8 +678,8 @@ def _h_data(ctx: _Ctx, cur: _Cursor) -> None:
     elif what == "POSITION":
         f["joint"] = cur.name("joint name")
         f["start"] = cur.number("start position")
-        inc = cur.opt_number()
-        steps = cur.opt_number()
+        inc = cur.opt_number("increment")
+        steps = cur.opt_number("number of steps")
         f["increment"] = 0.0 if inc is None else inc
         # increment 0 holds the joint, forcing nsteps = 0 (reference §8.6)
         f["nsteps"] = 0 if steps is None or f["increment"] == 0.0 else round(steps)
@@ -973,7 +988,7 @@ def _value(ctx: _Ctx, sc: Scanner) -> None:
     sc.what = "expression"
     root = parse_expression_at(sc, f"VALUE ({name}) statement", significant=ctx.sig_len)
     expr = Expression(name, ctx.src.text[start:].strip(), root, ctx.src.file,
-                      ctx.src.line_at(start), ctx.base_dir)
+                      ctx.src.line_at(start), ctx.base_dir, ctx.roots)
     ctx.stmt.names.append(name)
     ctx.stmt.written.append(tok.text)
     ctx.stmt.fields.update(name=name, expression=expr, source=expr.source)
@@ -983,9 +998,11 @@ def _value(ctx: _Ctx, sc: Scanner) -> None:
                  f"this one has {words} (all are read).")
 
 
-def _build(src: SourceStatement, significant: int | None, base_dir: str | None) -> Statement | None:
-    """Parse one source statement (``None`` if it holds nothing)."""
-    ctx = _Ctx(src, significant, base_dir)
+def _build(src: SourceStatement, significant: int | None, base_dir: str | None,
+           roots: tuple[str, ...] | None = None) -> Statement | None:
+    """Parse one source statement (``None`` if it holds nothing); TABLE files of its
+    VALUE expression are read only inside ``roots`` (when given)."""
+    ctx = _Ctx(src, significant, base_dir, roots)
     sc = Scanner(src)
     first = sc.next()
     if first is None:
@@ -1098,7 +1115,7 @@ def _unknown(tok: Token, src: SourceStatement) -> InputError:
         if close:
             hint = "did you mean " + " or ".join(close) + "?"
     return InputError(
-        f"unknown statement keyword '{tok.text}'" + (f": {hint}" if hint else "")
+        f"unknown statement keyword {quote(tok.text)}" + (f": {hint}" if hint else "")
         + ". Statements start with a definition keyword (LINK, ZPIN, POINT, ...), DATA, PRINT, "
         "LIST, STORE, PLOT, a control word (TITLE, EXECUTE, END, ...), DELETE or a graphics "
         "word; only the first 4 letters count",
@@ -1112,40 +1129,56 @@ def _unknown(tok: Token, src: SourceStatement) -> InputError:
 OnError = Callable[[InputError], None]
 
 
-def _read_deck(path: str, where: tuple[str, int] | None, what: str) -> list[str]:
-    try:
-        with open(path, "rb") as fh:
-            data = fh.read()
-    except OSError as exc:
-        raise InputError(f"{what}: the file '{path}' cannot be read ({exc.strerror or exc}); "
-                         "check the name (it is relative to the deck's directory)", where) from None
-    try:
-        text = data.decode("utf-8")
-    except UnicodeDecodeError:
-        text = data.decode("latin-1")
-    return split_lines(text)
+def _read_deck(path: str, where: tuple[str, int] | None, what: str,
+               roots: tuple[str, ...] | None = None) -> list[str]:
+    """The lines of a deck or recalled file (regular, bounded, decodable; inside
+    ``roots`` when given)."""
+    return split_lines(read_text(path, what, where, roots))
 
 
 class _Reader:
-    """Reads statements, expanding RECALL INPUT (reference §10)."""
+    """Reads statements, expanding RECALL INPUT (reference §10).
 
-    MAX_DEPTH = 16
+    Limits: RECALL INPUT nests at most ``MAX_RECALL_DEPTH`` deep, a file never
+    recalls itself (directly or through others), and the deck with every
+    recalled file holds at most ``MAX_STATEMENTS`` statements and
+    ``MAX_READ_BYTES`` bytes; reads stay inside ``roots`` when given.
+    """
+
+    MAX_DEPTH = MAX_RECALL_DEPTH
 
     def __init__(self, significant: int | None, columns: int | None, expand: bool,
-                 on_error: OnError | None) -> None:
+                 on_error: OnError | None, roots: tuple[str, ...] | None = None) -> None:
         self.significant = significant
         self.columns = columns
         self.expand = expand
         self.on_error = on_error
+        self.roots = roots
         self.resume: dict[str, int] = {}
         self.last_path: str | None = None
         self.depth = 0
         self.ended = False
+        self.count = 0
+        self.errors = 0
+        self.read_bytes = 0
+        self.active: list[str] = []  # real paths of the files being read
 
     def report(self, exc: InputError) -> None:
         if self.on_error is None:
             raise exc
+        self.errors += 1
+        if self.errors > MAX_INPUT_ERRORS:
+            raise InputError(f"more than {MAX_INPUT_ERRORS} input errors (limit "
+                             "MAX_INPUT_ERRORS); reading stops here", exc.where)
         self.on_error(exc)
+
+    def counted(self, stmt: Statement) -> Statement:
+        """``stmt`` after counting it against MAX_STATEMENTS (InputError beyond)."""
+        self.count += 1
+        if self.count > MAX_STATEMENTS:
+            raise InputError(f"the deck and the files it recalls hold more than {MAX_STATEMENTS} "
+                             "statements (limit MAX_STATEMENTS); reading stops here", stmt.where)
+        return stmt
 
     def read(self, lines: Iterable[str], file: str, base_dir: str | None, first_line: int = 1,
              recalled: bool = False) -> Generator[Statement, None, bool]:
@@ -1153,12 +1186,13 @@ class _Reader:
         recalled file."""
         for src in split_statements(lines, file, first_line, self.columns):
             try:
-                stmt = _build(src, self.significant, base_dir)
+                stmt = _build(src, self.significant, base_dir, self.roots)
             except InputError as exc:
                 self.report(exc)
                 continue
             if stmt is None:
                 continue
+            self.counted(stmt)
             if recalled and stmt.keyword == "RETURN":
                 stmt.fields["ends_recall"] = True
                 self.resume[file] = stmt.end_line
@@ -1171,10 +1205,24 @@ class _Reader:
                 try:
                     yield from self.recall(stmt, base_dir)
                 except InputError as exc:
+                    if self.count > MAX_STATEMENTS or self.errors > MAX_INPUT_ERRORS:
+                        raise
                     self.report(exc)
             if self.ended:
                 return False
         return False
+
+    def _check_recall(self, stmt: Statement, path: str) -> None:
+        """Refuse a RECALL INPUT that nests too deep or recalls a file being read."""
+        real = os.path.realpath(path)
+        if real in self.active:
+            chain = " -> ".join(quote_path(os.path.basename(p), 40) for p in
+                                [*self.active[self.active.index(real):], real])
+            raise stmt.error(f"the file {quote_path(path)} recalls itself ({chain}); a file "
+                             "cannot be recalled while it is being read")
+        if self.depth >= self.MAX_DEPTH:
+            raise stmt.error(f"RECALL INPUT files are nested more than {self.MAX_DEPTH} deep "
+                             "(limit MAX_RECALL_DEPTH)")
 
     def recall(self, stmt: Statement, base_dir: str | None) -> Iterator[Statement]:
         name = stmt.fields.get("filename")
@@ -1188,25 +1236,30 @@ class _Reader:
             path = self.last_path
             start = self.resume.get(path, 0)
         stmt.fields["path"] = path
-        if self.depth >= self.MAX_DEPTH:
-            raise stmt.error(f"RECALL INPUT files are nested more than {self.MAX_DEPTH} deep "
-                             "(does a file recall itself?)")
-        lines = _read_deck(path, stmt.where, "RECALL INPUT statement")
+        self._check_recall(stmt, path)
+        text = read_text(path, "RECALL INPUT statement", stmt.where, self.roots)
+        self.read_bytes += len(text)
+        if self.read_bytes > MAX_READ_BYTES:
+            raise stmt.error(f"the deck's RECALL INPUT files hold more than {MAX_READ_BYTES} "
+                             "bytes in all (limit MAX_READ_BYTES)")
+        lines = split_lines(text)
         self.last_path = path
         self.depth += 1
+        self.active.append(os.path.realpath(path))
         try:
             returned = yield from self.read(lines[start:], path, os.path.dirname(path) or None,
                                             first_line=start + 1, recalled=True)
         finally:
             self.depth -= 1
+            self.active.pop()
         if not returned and not self.ended:
             self.resume[path] = len(lines)
             last = len(lines) - (1 if lines and not lines[-1] else 0)  # the last line of text
-            yield Statement(
+            yield self.counted(Statement(
                 kind="CONTROL", keyword="RETURN", fields={"ends_recall": True, "simulated": True},
                 file=path, line=last, end_line=last, text="",
                 warnings=["RETURN statement simulated at end of file."],
-            )
+            ))
 
 
 def iter_statements(
@@ -1218,6 +1271,7 @@ def iter_statements(
     on_error: OnError | None = None,
     significant: int | None = 4,
     columns: int | None = COLUMNS,
+    read_roots: Iterable[str] | None = None,
 ) -> Iterator[Statement]:
     """Yield the statements of a deck text (or of its lines) one by one.
 
@@ -1231,9 +1285,13 @@ def iter_statements(
     :class:`InputError` and the statement is skipped; otherwise it is raised.
     ``significant`` is the number of significant characters of user names
     (IMP: 4; ``None`` keeps whole names); ``columns`` the useful columns of a
-    line (IMP: 72; ``None`` for no limit).
+    line (IMP: 72; ``None`` for no limit).  ``read_roots``, when given, are
+    the only folders RECALL INPUT and TABLE may read from.
     """
-    reader = _Reader(significant, columns, expand_recall, on_error)
+    roots = None if read_roots is None else real_roots(read_roots)
+    reader = _Reader(significant, columns, expand_recall, on_error, roots)
+    if os.path.isfile(file):  # the deck itself is being read: it cannot be recalled
+        reader.active.append(os.path.realpath(file))
     lines = split_lines(text) if isinstance(text, str) else list(text)
     yield from reader.read(lines, file, base_dir)
 
@@ -1247,10 +1305,12 @@ def parse_text(
     on_error: OnError | None = None,
     significant: int | None = 4,
     columns: int | None = COLUMNS,
+    read_roots: Iterable[str] | None = None,
 ) -> list[Statement]:
     """Parse a deck given as text; see :func:`iter_statements` for the options."""
     return list(iter_statements(text, file, base_dir=base_dir, expand_recall=expand_recall,
-                                on_error=on_error, significant=significant, columns=columns))
+                                on_error=on_error, significant=significant, columns=columns,
+                                read_roots=read_roots))
 
 
 def parse_file(
@@ -1260,13 +1320,19 @@ def parse_file(
     on_error: OnError | None = None,
     significant: int | None = 4,
     columns: int | None = COLUMNS,
+    allow_read: Iterable[str | os.PathLike[str]] = (),
 ) -> list[Statement]:
-    """Parse a deck file; names in RECALL INPUT and TABLE are relative to its directory."""
+    """Parse a deck file; names in RECALL INPUT and TABLE are relative to its folder.
+
+    RECALL INPUT and TABLE read only inside the deck's folder and the folders
+    of ``allow_read``.
+    """
     p = os.fspath(path)
-    lines = _read_deck(p, None, "deck")
+    lines = _read_deck(p, (p, 0), "the deck cannot be read")
+    roots = [os.path.dirname(os.path.abspath(p)), *map(os.fspath, allow_read)]
     return parse_text(lines, p, base_dir=os.path.dirname(p) or None,
                       expand_recall=expand_recall, on_error=on_error,
-                      significant=significant, columns=columns)
+                      significant=significant, columns=columns, read_roots=roots)
 
 
 def parse(source: str | os.PathLike[str], **options: Any) -> list[Statement]:

@@ -30,7 +30,9 @@ from __future__ import annotations
 import math
 import os
 import time as _time
-from collections.abc import Callable
+import warnings
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -38,7 +40,8 @@ from typing import Any
 import numpy as np
 
 from openimp import io
-from openimp.errors import InputError
+from openimp.errors import InputError, OutputError
+from openimp.files import OutputFolder, printable
 from openimp.imp.expr import Expression, SimulationStop
 from openimp.imp.interp import (
     DEFAULT_TITLE,
@@ -47,11 +50,13 @@ from openimp.imp.interp import (
     Request,
     RunSpec,
     State,
+    Where,
     build_model,
     compile_built,
 )
 from openimp.imp.jointmap import ImpJoint, imp_variables, to_degrees
 from openimp.kinematics import check_drivers, free_coordinate, sweep
+from openimp.limits import MAX_NUMBER, MAX_RATE, MAX_RESULT_BYTES, MAX_STEPS, number_text
 from openimp.system import make_state
 
 __all__ = ["Prepared", "Solution", "execute_run", "not_produced", "run_deck",
@@ -214,6 +219,8 @@ def validate(spec: RunSpec) -> Prepared:
             raise InputError(f"EXECUTE: {exc} (the input motions are given by DATA POSITION / "
                              "DATA MOTION statements)", where) from None
     prep = Prepared(spec, built, system, drivers, items, unsupported)
+    if spec.mode == "kinematic":
+        _check_size(prep)
     spec._prepared = prep  # type: ignore[attr-defined]
     return prep
 
@@ -267,6 +274,20 @@ def trailing_requests(deck: Any) -> list[str]:
     return out
 
 
+def _check_size(prep: Prepared) -> None:
+    """Refuse a run whose results would exceed ``MAX_RESULT_BYTES``."""
+    state = prep.spec.state
+    n = len(time_grid(state, 0.0)[0])
+    need = result_bytes(prep, n)
+    if need > MAX_RESULT_BYTES:
+        bodies, points = _needs(prep, n)
+        raise InputError(f"EXECUTE: the run would hold {need / 2**20:.0f} MB of results ({n} "
+                         f"steps of {len(bodies)} links and {len(points)} points), more than "
+                         f"{MAX_RESULT_BYTES / 2**20:.0f} MB (limit MAX_RESULT_BYTES); use "
+                         "fewer steps (DATA TIME, DATA POSITION) or request fewer items",
+                         prep.spec.where)
+
+
 # =============================================================================
 # Solution
 # =============================================================================
@@ -285,6 +306,12 @@ class Solution:
     bodies: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]
     points: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]
     message: str = ""
+    #: the user interrupted the solution (Ctrl-C); ``message`` says where
+    interrupted: bool = False
+    #: a DATA MOTION VALUE evaluated RETURN or END: what IMP says about it
+    stop: str = ""
+    #: END was evaluated: no further EXECUTE runs
+    end: bool = False
 
     @property
     def n(self) -> int:
@@ -321,23 +348,29 @@ class _Accumulator:
             self.add(f"v:{p}", res.point_velocity(p))
             self.add(f"a:{p}", res.point_acceleration(p))
 
-    def get(self, key: str, shape: tuple[int, ...]) -> np.ndarray:
+    def count(self) -> int:
+        """Steps held by every part (a chunk cut short by Ctrl-C is not counted)."""
+        sizes = [sum(len(a) for a in parts) for parts in self.parts.values()]
+        return min([*sizes, len(self.fgc)]) if sizes else 0
+
+    def get(self, key: str, shape: tuple[int, ...], n: int) -> np.ndarray:
         parts = self.parts.get(key)
         if not parts:
             return np.zeros((0, *shape))
-        return np.concatenate(parts, axis=0)
+        return np.concatenate(parts, axis=0)[:n]
 
     def solution(self, times: np.ndarray, nq: int, message: str) -> Solution:
-        q = self.get("q", (nq,))
-        n = q.shape[0]
+        n = self.count()
+        get = self.get
         return Solution(
-            times=times[:n], q=q, qd=self.get("qd", (nq,)), qdd=self.get("qdd", (nq,)),
-            quality=self.get("quality", ()), iterations=self.get("iterations", ()),
-            mobility=self.get("mobility", ()), fgc=self.fgc,
-            bodies={b: (self.get(f"T:{b}", (4, 4)), self.get(f"W:{b}", (4, 4)),
-                        self.get(f"A:{b}", (4, 4))) for b in self.bodies},
-            points={p: (self.get(f"p:{p}", (3,)), self.get(f"v:{p}", (3,)),
-                        self.get(f"a:{p}", (3,))) for p in self.points},
+            times=times[:n], q=get("q", (nq,), n), qd=get("qd", (nq,), n),
+            qdd=get("qdd", (nq,), n), quality=get("quality", (), n),
+            iterations=get("iterations", (), n), mobility=get("mobility", (), n),
+            fgc=self.fgc[:n],
+            bodies={b: (get(f"T:{b}", (4, 4), n), get(f"W:{b}", (4, 4), n),
+                        get(f"A:{b}", (4, 4), n)) for b in self.bodies},
+            points={p: (get(f"p:{p}", (3,), n), get(f"v:{p}", (3,), n),
+                        get(f"a:{p}", (3,), n)) for p in self.points},
             message=message,
         )
 
@@ -367,9 +400,16 @@ def time_grid(state: State, t0: float) -> tuple[np.ndarray, str | None]:
     """Output times of a run, and IMP's message when DATA TIME is assumed."""
     if state.time is not None:
         final, _, pstep = state.time
-        n = math.floor(final / pstep + 1e-9) + 1
+        ratio = final / pstep
+        if not ratio <= MAX_STEPS:  # refused at DATA TIME; NaN too
+            raise InputError(f"DATA TIME: {number_text(ratio)} output steps are more than "
+                             f"{MAX_STEPS} (limit MAX_STEPS)", state.time_where)
+        n = math.floor(ratio + 1e-9) + 1
         return t0 + pstep * np.arange(n), None
     final = max([i.nsteps for i in state.inputs.values() if i.kind == "POSITION"] or [0])
+    if final > MAX_STEPS:  # refused at DATA POSITION
+        raise InputError(f"DATA POSITION: {final} steps are more than {MAX_STEPS} (limit "
+                         "MAX_STEPS)")
     msg = f"'DATA TIME = {float(final):.5f}, 0.00000, 1.00000' is assumed."
     return t0 + np.arange(final + 1, dtype=float), msg
 
@@ -398,8 +438,24 @@ def _const(kind: str, v: float) -> float:
     return math.radians(v) if kind == "angle" else float(v)
 
 
+@dataclass
+class Halt:
+    """Why the input motions end before the last output step: a VALUE evaluated
+    RETURN or END (a stop the language asks for) or gave a value beyond the
+    limits (a failure)."""
+
+    step: int
+    text: str
+    kind: str  # "RETURN", "END" or "LIMIT"
+
+
 class Motions:
-    """Values, rates and accelerations of the SGCs (openimp units, signed)."""
+    """Values, rates and accelerations of the SGCs (openimp units, signed).
+
+    :attr:`halt` is set when a DATA MOTION VALUE stops the run at some step
+    (RETURN or END evaluated, or a value beyond ``MAX_NUMBER`` / a rate beyond
+    ``MAX_RATE``); the steps from there on are not filled.
+    """
 
     def __init__(self, prep: Prepared, times: np.ndarray, notes: list[str]) -> None:
         self.prep = prep
@@ -411,6 +467,7 @@ class Motions:
         self.v = np.zeros((n, nd))
         self.a = np.zeros((n, nd))
         self.undefined: set[str] = set()
+        self.halt: Halt | None = None
 
     def fill(self, k0: int, k1: int, resolver: Callable[[int], Any] | None) -> None:
         """Fill steps k0..k1-1 (``resolver(k)`` gives the resolve function at step k)."""
@@ -422,31 +479,59 @@ class Motions:
                 self.p[k0:k1, j] = np.radians(val) if d.kind == "angle" else val
                 self.v[k0:k1, j] = inp.velocity
                 self.a[k0:k1, j] = inp.accel
-            else:
-                m = inp.motions[d.var]
-                if not isinstance(m, str):
-                    self.p[k0:k1, j] = _const(d.kind, float(m))
-                    continue
-                ex = self.state.values[m]
-                for k in range(k0, k1):
-                    resolve = resolver(k) if resolver is not None else _time_only(self.times[k])
-                    jet = ex.derivatives(self.state.values, resolve)
-                    vals = []
-                    for x in jet:
-                        if not math.isfinite(x):
-                            if m not in self.undefined:
-                                self.undefined.add(m)
-                                self.notes.append(
-                                    f"VALUE {m} (DATA MOTION of joint {d.joint}) is undefined "
-                                    f"at time {self.times[k]:.6f}; IMP uses 0 for it")
-                            x = 0.0
-                        vals.append(x)
+                continue
+            m = inp.motions[d.var]
+            if not isinstance(m, str):
+                self.p[k0:k1, j] = _const(d.kind, float(m))
+                continue
+            for k in range(k0, k1):
+                if self.halt is not None and k >= self.halt.step:
+                    break
+                vals = self._jet(d, m, k, resolver)
+                if vals is not None:
                     self.p[k, j], self.v[k, j], self.a[k, j] = vals
         s = np.array([d.sign for d in self.prep.drivers])
         if len(s):
             self.p[k0:k1] *= s
             self.v[k0:k1] *= s
             self.a[k0:k1] *= s
+
+    def _jet(self, d: Driver, m: str, k: int, resolver: Callable[[int], Any] | None
+             ) -> list[float] | None:
+        """Value, rate and acceleration of VALUE ``m`` at step ``k`` (None: halted)."""
+        resolve = resolver(k) if resolver is not None else _time_only(self.times[k])
+        try:
+            jet = self.state.values[m].derivatives(self.state.values, resolve)
+        except SimulationStop as stop:
+            self._halt(k, stop.kind, f"{stop.where[0]}:{stop.where[1]}: VALUE {m} (DATA MOTION "
+                       f"of joint {d.joint}) evaluated {stop.kind} at time "
+                       f"{self.times[k]:.6f}")
+            return None
+        vals = []
+        for i, x in enumerate(jet):
+            if not math.isfinite(x):
+                if m not in self.undefined:
+                    self.undefined.add(m)
+                    self.notes.append(
+                        f"{d.inp.where[0]}:{d.inp.where[1]}: VALUE {m} (DATA MOTION of joint "
+                        f"{d.joint}) is undefined at time {self.times[k]:.6f}; IMP uses 0 "
+                        "for it")
+                x = 0.0
+            top, name = (MAX_NUMBER, "MAX_NUMBER") if i == 0 else (MAX_RATE, "MAX_RATE")
+            if abs(x) > top:
+                what = ("value", "rate", "acceleration")[i]
+                self._halt(k, "LIMIT", f"{d.inp.where[0]}:{d.inp.where[1]}: DATA MOTION of "
+                           f"joint {d.joint}: the {what} of VALUE {m} at time "
+                           f"{self.times[k]:.6f} is {number_text(x)}, beyond "
+                           f"±{number_text(top)} (limit {name})")
+                return None
+            vals.append(x)
+        return vals
+
+    def _halt(self, k: int, kind: str, text: str) -> None:
+        """Record the first step at which the motions stop."""
+        if self.halt is None or k < self.halt.step:
+            self.halt = Halt(k, text, kind)
 
 
 def _time_only(t: float) -> Callable[[str, str | None, int], float]:
@@ -459,12 +544,20 @@ def _time_only(t: float) -> Callable[[str, str | None, int], float]:
 # =============================================================================
 # Solving
 # =============================================================================
-def _needs(prep: Prepared) -> tuple[list[str], list[str]]:
-    """Bodies and points whose motion the requests and graphics need."""
+#: every point of the model is kept (for VALUEs and graphics) while points x steps stay below
+ALL_POINTS_BUDGET = 2_000_000
+#: bytes of results per step: q, rates (3 nq), per body T, W, A (48), per point p, v, a (9)
+_FLOATS_PER_BODY, _FLOATS_PER_POINT = 48, 9
+
+
+def _needs(prep: Prepared, nsteps: int = 1) -> tuple[list[str], list[str]]:
+    """Bodies and points whose motion the requests, VALUEs and graphics need (every
+    point of the model while points x steps stay within ``ALL_POINTS_BUDGET``)."""
     st = prep.spec.state
     model = prep.built.model
     bodies: set[str] = set()
-    points: set[str] = set(model.points) if len(model.points) <= 200 else set()
+    every = len(model.points) <= 200 and len(model.points) * nsteps <= ALL_POINTS_BUDGET
+    points: set[str] = set(model.points) if every else set()
     for it in prep.items:
         if it.kind == "link":
             bodies.add(it.name)
@@ -480,21 +573,34 @@ def _needs(prep: Prepared) -> tuple[list[str], list[str]]:
             bodies.add(model.joints[j].body1)
     for _, pts in st.polylines:
         points.update(p for p in pts if p in model.points)
-    for it in prep.items:
-        if it.kind == "value":
-            for _kind, name in st.values[it.name].references():
-                if name in model.points:
-                    points.add(name)
+    for ex in st.values.values():  # VALUEs may read the motion of any point
+        for _kind, name in ex.references():
+            if name in model.points:
+                points.add(name)
     return sorted(bodies), sorted(points)
+
+
+def result_bytes(prep: Prepared, nsteps: int) -> int:
+    """Bytes of results a run of ``nsteps`` output steps holds."""
+    bodies, points = _needs(prep, nsteps)
+    per_step = (3 * prep.system.nq + 4 + _FLOATS_PER_BODY * len(bodies)
+                + _FLOATS_PER_POINT * len(points))
+    per_table = sum(8 for _ in prep.items)  # a few columns per request item
+    return 8 * nsteps * (per_step + per_table)
 
 
 def solve(prep: Prepared, times: np.ndarray, start: np.ndarray | None,
           notes: list[str], progress: Callable[[int, int], None] | None = None) -> Solution:
-    """Solve every step of a run (see the module docstring)."""
+    """Solve every step of a run (see the module docstring).
+
+    Ctrl-C (KeyboardInterrupt) while solving ends the run with what was solved
+    (:attr:`Solution.interrupted`); a DATA MOTION VALUE that evaluates RETURN or
+    END ends it at that step (:attr:`Solution.stop`).
+    """
     system = prep.system
     st = prep.spec.state
     drivers = prep.drivers
-    bodies, points = _needs(prep)
+    bodies, points = _needs(prep, len(times))
     acc = _Accumulator(bodies, points)
     motions = Motions(prep, times, notes)
     n = len(times)
@@ -519,50 +625,91 @@ def solve(prep: Prepared, times: np.ndarray, start: np.ndarray | None,
         if not lagged:
             motions.fill(0, n, None)
     names = [system.var_names[c] for c in drv_cols]
+    opts = {"tol": tol, "pivot_tol": ptol, "maxit": maxit, "hold_free": True}
     message = ""
+    interrupted = False
     last: Solution | None = None
-    if lagged:  # the values at the start posture: a sweep that holds every driver
-        q0 = system.modeling_q if cur is None else cur
-        try:
-            pre = sweep(system, {c: [q0[drv_cols[j]]] for j, c in enumerate(names)},
-                               rates={c: [0.0] for c in names}, tol=tol, pivot_tol=ptol,
-                               maxit=maxit, hold_free=True, start=cur)
-            pacc = _Accumulator(bodies, points)
-            pacc.take(pre)
-            last = pacc.solution(times[:1], system.nq, "")
-        except InputError:
-            last = None
     k = 0
-    while k < n:
-        m = 1 if lagged else min(CHUNK, n - k)
-        if lagged:
-            ref = last if last is not None and last.n else None
-            motions.fill(k, k + 1, lambda kk, s=ref: _resolver(
-                prep, s if s is not None else acc.solution(times[:0], system.nq, ""),
-                0 if s is not None else -1, times[kk], motions, kk, notes))
-        sl = slice(k, k + m)
-        try:
-            res = sweep(system, {c: motions.p[sl, j] for j, c in enumerate(names)},
-                               rates={c: motions.v[sl, j] for j, c in enumerate(names)},
-                               accels={c: motions.a[sl, j] for j, c in enumerate(names)},
-                               tol=tol, pivot_tol=ptol, maxit=maxit, hold_free=True, start=cur)
-        except InputError as exc:
-            message = _stop_message(prep, times, k, motions, acc, f"{exc}")
-            break
-        acc.take(res)
-        if lagged and res.nsteps:
-            one = _Accumulator(bodies, points)
-            one.take(res)
-            last = one.solution(times[k:k + 1], system.nq, "")
-        if res.message:
-            message = _stop_message(prep, times, k + res.nsteps, motions, acc,
-                                    _why(res.message))
-            break
-        cur = res.q[-1]
-        k += m
-        if progress is not None:
-            progress(k, n)
-    return acc.solution(times, system.nq, message)
+    try:
+        if lagged:  # the values at the start posture: a sweep that holds every driver
+            last = _start_values(prep, system, cur, drv_cols, names, bodies, points, times,
+                                 opts)
+        while k < n:
+            m = 1 if lagged else min(CHUNK, n - k)
+            if lagged:
+                ref = last if last is not None and last.n else None
+                motions.fill(k, k + 1, lambda kk, s=ref: _resolver(
+                    prep, s if s is not None else acc.solution(times[:0], system.nq, ""),
+                    0 if s is not None else -1, times[kk], motions, kk, notes))
+            if motions.halt is not None:
+                m = min(m, motions.halt.step - k)
+                if m <= 0:
+                    break
+            sl = slice(k, k + m)
+            try:
+                res = sweep(system, {c: motions.p[sl, j] for j, c in enumerate(names)},
+                            rates={c: motions.v[sl, j] for j, c in enumerate(names)},
+                            accels={c: motions.a[sl, j] for j, c in enumerate(names)},
+                            start=cur, **opts)
+            except InputError as exc:
+                message = _stop_message(prep, times, k, motions, acc, f"{exc}")
+                break
+            acc.take(res)
+            if lagged and res.nsteps:
+                one = _Accumulator(bodies, points)
+                one.take(res)
+                last = one.solution(times[k:k + 1], system.nq, "")
+            if res.message:
+                message = _stop_message(prep, times, k + res.nsteps, motions, acc,
+                                        _why(res.message))
+                break
+            cur = res.q[-1]
+            k += m
+            if progress is not None:
+                progress(k, n)
+    except KeyboardInterrupt:
+        interrupted = True
+        k = acc.count()
+        message = _stop_message(prep, times, min(k, n - 1), motions, acc,
+                                "interrupted by the user (Ctrl-C)", want=False)
+    sol = acc.solution(times, system.nq, message)
+    sol.interrupted = interrupted
+    if motions.halt is not None and not message:
+        _halted(sol, prep, times, motions, acc)
+    return sol
+
+
+def _start_values(prep: Prepared, system: Any, cur: np.ndarray | None, drv_cols: list[int],
+                  names: list[str], bodies: list[str], points: list[str], times: np.ndarray,
+                  opts: dict[str, Any]) -> Solution | None:
+    """The start posture solved with every driver held (for VALUEs that read the model)."""
+    q0 = system.modeling_q if cur is None else cur
+    try:
+        pre = sweep(system, {c: [q0[drv_cols[j]]] for j, c in enumerate(names)},
+                    rates={c: [0.0] for c in names}, start=cur, **opts)
+    except InputError:
+        return None
+    pacc = _Accumulator(bodies, points)
+    pacc.take(pre)
+    return pacc.solution(times[:1], system.nq, "")
+
+
+def _halted(sol: Solution, prep: Prepared, times: np.ndarray, motions: Motions,
+            acc: _Accumulator) -> None:
+    """Record on ``sol`` why the motions ended at their halt step."""
+    halt = motions.halt
+    assert halt is not None
+    k = halt.step
+    listed = (f"the {k} position(s) before it are listed" if k > 0 else
+              "no position was solved")
+    if halt.kind == "LIMIT":
+        sol.message = _stop_message(prep, times, k, motions, acc, halt.text, want=False)
+    elif halt.kind == "END":
+        sol.stop = (f"{halt.text}: the run stops there and no further EXECUTE runs (END in a "
+                    f"VALUE leaves IMP); {listed}")
+        sol.end = True
+    else:
+        sol.stop = f"{halt.text}: the run stops there (RETURN in a VALUE); {listed}"
 
 
 def _why(msg: str) -> str:
@@ -590,7 +737,9 @@ def _structure(prep: Prepared, times: np.ndarray, cur: np.ndarray | None, acc: _
 
 
 def _stop_message(prep: Prepared, times: np.ndarray, k: int, motions: Motions,
-                  acc: _Accumulator, why: str) -> str:
+                  acc: _Accumulator, why: str, want: bool = True) -> str:
+    """Why the run stopped at step ``k`` and what it kept; ``want`` shows the
+    input posture asked for at ``k``."""
     drivers = prep.drivers
 
     def sgc_text(step: int) -> str:
@@ -602,9 +751,9 @@ def _stop_message(prep: Prepared, times: np.ndarray, k: int, motions: Motions,
                                                                  else ""))
         return ", ".join(parts) or "no input"
 
-    want = sgc_text(min(k, len(times) - 1))
-    out = (f"the run stopped at step {k} (time {times[min(k, len(times) - 1)]:.6f}; "
-           f"{want}): {why}")
+    at = min(k, len(times) - 1)
+    asked = f"; {sgc_text(at)}" if want else ""
+    out = f"the run stopped at step {k} (time {times[at]:.6f}{asked}): {why}"
     if k > 0:
         out += f". The last good posture is step {k - 1} (time {times[k - 1]:.6f}; " \
                f"{sgc_text(k - 1)}); the {k} position(s) solved are listed"
@@ -703,9 +852,9 @@ def _resolver(prep: Prepared, sol: Solution, k: int, t: float, motions: Motions 
     return resolve
 
 
-def _rows(sol: Solution, k: int) -> Solution:
-    """The one-step solution at step ``k``."""
-    sl = slice(k, k + 1)
+def _rows(sol: Solution, k: int, stop: int | None = None) -> Solution:
+    """The solution of steps ``k`` to ``stop`` (default: step ``k`` alone)."""
+    sl = slice(k, k + 1 if stop is None else stop)
     return Solution(
         times=sol.times[sl], q=sol.q[sl], qd=sol.qd[sl], qdd=sol.qdd[sl],
         quality=sol.quality[sl], iterations=sol.iterations[sl], mobility=sol.mobility[sl],
@@ -713,6 +862,37 @@ def _rows(sol: Solution, k: int) -> Solution:
         bodies={b: tuple(x[sl] for x in v) for b, v in sol.bodies.items()},  # type: ignore
         points={p: tuple(x[sl] for x in v) for p, v in sol.points.items()},  # type: ignore
     )
+
+
+def _value_stop(prep: Prepared, sol: Solution, notes: list[str]) -> Solution:
+    """``sol`` cut before the first step at which a VALUE of the run's requests
+    evaluates RETURN or END: IMP stops the simulation there (reference §5)."""
+    st = prep.spec.state
+    first: tuple[int, str, SimulationStop] | None = None
+    for it in prep.items:
+        if it.kind != "value":
+            continue
+        ex = st.values[it.name]
+        for k in range(sol.n if first is None else first[0]):
+            try:
+                ex.derivatives(st.values, _resolver(prep, sol, k, sol.times[k], None, k, []))
+            except SimulationStop as stop:
+                first = (k, it.name, stop)
+                break
+    if first is None:
+        return sol
+    k, name, stop = first
+    cut = _rows(sol, 0, k)
+    cut.message = ""
+    listed = f"the {k} position(s) before it are listed" if k else "no position is listed"
+    text = (f"{stop.where[0]}:{stop.where[1]}: VALUE {name} evaluated {stop.kind} at time "
+            f"{sol.times[k]:.6f}: the run stops there ")
+    if stop.kind == "END":
+        cut.stop = text + f"and no further EXECUTE runs (END in a VALUE leaves IMP); {listed}"
+        cut.end = True
+    else:
+        cut.stop = text + f"(RETURN in a VALUE); {listed}"
+    return cut
 
 
 def _values(prep: Prepared, sol: Solution, name: str, notes: list[str]) -> np.ndarray:
@@ -725,9 +905,9 @@ def _values(prep: Prepared, sol: Solution, name: str, notes: list[str]) -> np.nd
             out[k] = ex.derivatives(st.values, _resolver(prep, sol, k, sol.times[k], None, k,
                                                          notes), notes=vnotes)
         except SimulationStop as stop:
-            notes.append(f"VALUE {name} evaluated {stop.kind} at time {sol.times[k]:.6f}; "
-                         "IMP would stop the run there (the values after it are left "
-                         "undefined)")
+            notes.append(f"{stop.where[0]}:{stop.where[1]}: VALUE {name} evaluated {stop.kind} "
+                         f"at time {sol.times[k]:.6f}; IMP would stop the run there (the "
+                         "values after it are left undefined)")
             break
         for v in vnotes:
             if v not in notes:
@@ -920,13 +1100,21 @@ def print_step(prep: Prepared, sol: Solution, k: int, tables: dict[tuple[str, st
 # =============================================================================
 @dataclass
 class Context:
-    """State carried from run to run: reference posture, time, output sinks."""
+    """State carried from run to run: reference posture, time, output sinks.
+
+    ``folder`` receives the files the deck asks for (STORE, PRINT ON, STORE
+    INPUT, graphics); ``out_dir`` is set when graphics are rendered (--out).
+    ``problems`` receives a message for every file that was refused or could
+    not be written.  ``stopped`` ends the deck (END in a VALUE, Ctrl-C).
+    """
 
     out_dir: Path | None
     echo: Callable[[str], None]
     notes: Callable[[str], None]
     progress: Callable[[int, int, int], None] | None
     deck_stem: str
+    folder: OutputFolder
+    problems: Callable[[str], None]
     ref_q: np.ndarray | None = None
     ref_names: tuple[str, ...] | None = None
     ref_sol: tuple[Prepared, Solution] | None = None
@@ -934,20 +1122,24 @@ class Context:
     print_on: str | None = None
     print_files: dict[str, list[str]] = field(default_factory=dict)
     files: dict[str, str] = field(default_factory=dict)
+    file_where: dict[str, Where] = field(default_factory=dict)
     draws: int = 0
     graphics_note: bool = False
     interactive_note: bool = False
     viz: Any = None
     viz_error: str | None = None
+    stopped: bool = False
 
     def say(self, line: str) -> None:
-        """Print a line (and copy it to the PRINT ON file)."""
+        """Print a line (and copy it to the PRINT ON file), control characters escaped."""
+        line = printable(line)
         self.echo(line)
         if self.print_on is not None:
             self.print_files.setdefault(self.print_on, []).append(line)
 
-    def get_viz(self) -> Any:
-        """The viz module, or None (with a note) when it cannot be imported."""
+    def get_viz(self, where: Where) -> Any:
+        """The viz module, or None (with a note located at ``where``) when it cannot be
+        imported."""
         if self.viz is None and self.viz_error is None:
             try:
                 from openimp import viz  # type: ignore[attr-defined]
@@ -955,9 +1147,29 @@ class Context:
                 self.viz = viz
             except Exception as exc:
                 self.viz_error = f"{type(exc).__name__}: {exc}"
-                self.notes(f"graphics were not rendered: openimp.viz cannot be imported "
-                           f"({self.viz_error})")
+                self.notes(f"{where[0]}:{where[1]}: graphics were not rendered: openimp.viz "
+                           f"cannot be imported ({printable(self.viz_error, 200)})")
         return self.viz
+
+    def picture(self, name: str, where: Where, render: Callable[[str], Any]) -> None:
+        """Render a graphics file ``name`` in the output folder with ``render(path)``
+        (refused names and write failures go to ``problems``)."""
+        path = self.folder.target(name, where)
+        if path is None:
+            self.problems(self.folder.refused[-1])
+            return
+        try:
+            render(str(path))
+        except OutputError as exc:
+            self.problems(f"{where[0]}:{where[1]}: {exc}")
+            return
+        self.folder.claim(path)
+
+
+def _ascii(text: str) -> str:
+    """``text`` for a picture: printable ASCII, any other character as '?' (the fonts
+    of the pictures need not have a glyph for it, and IMP titles are ASCII)."""
+    return "".join(ch if " " <= ch <= "~" else "?" for ch in text)
 
 
 def _title(state: State) -> str:
@@ -969,7 +1181,7 @@ def execute_run(spec: RunSpec, ctx: Context) -> io.Run:
     state = spec.state
     run = io.Run(_title(state), spec.mode)
     when = _time.strftime("%m/%d/%Y at %H:%M:%S")
-    for line in io.banner(run.title, spec.mode.capitalize(), when).splitlines():
+    for line in io.banner(printable(run.title), spec.mode.capitalize(), when).split("\n"):
         ctx.say(line)
     failure, unsupported = not_produced(spec)
     if failure is not None:
@@ -1003,6 +1215,8 @@ def execute_run(spec: RunSpec, ctx: Context) -> io.Run:
             assert ctx.progress is not None
             ctx.progress(_i, done, total)
     sol = solve(prep, times, start, notes, prog)
+    if not (sol.stop or sol.interrupted) and sol.n:
+        sol = _value_stop(prep, sol, notes)
     # tables
     tables: dict[tuple[str, str, str], io.Table] = {}
     for it in prep.items:
@@ -1020,18 +1234,24 @@ def execute_run(spec: RunSpec, ctx: Context) -> io.Run:
     for note in notes:
         run.messages.append(note)
         ctx.say(f"*** {note} ***")
+    if sol.stop:
+        run.messages.append(sol.stop)
+        ctx.say(f"*** {sol.stop} ***")
+        ctx.stopped = ctx.stopped or sol.end
     if sol.message:
         run.failure = f"{spec.where[0]}:{spec.where[1]}: EXECUTE: {sol.message}"
+    run.interrupted = sol.interrupted
     # listings
     for t in run.tables:
         if t.request.startswith("LIST"):
             ctx.say("")
-            for line in io.format_listing(t).splitlines():
+            for line in io.format_listing(t).split("\n"):
                 ctx.say(line)
     if run.failure:
         ctx.say("")
         ctx.say(f"*** {run.failure} ***")
-    _graphics(prep, sol, run, ctx)
+    if not run.interrupted:
+        _graphics(prep, sol, run, ctx)
     if spec.hold and sol.n > 0:
         ctx.ref_q = sol.q[-1].copy()
         ctx.ref_names = prep.system.var_names
@@ -1067,7 +1287,8 @@ def _scene(prep: Prepared, sol: Solution, steps: slice, title: str) -> Any:
             axes.append((j, _joint_frames(prep, sol, j)[steps], float(length)))
     view = g.view
     times = None if stepped(st) else np.asarray(sol.times[steps])  # None: "step k / n"
-    return Scene(links=links, colors=colors, view=view, axes=axes, times=times, title=title)
+    return Scene(links=links, colors=colors, view=view, axes=axes, times=times,
+                 title=_ascii(title))
 
 
 def _graphics(prep: Prepared, sol: Solution, run: io.Run, ctx: Context) -> None:
@@ -1077,35 +1298,36 @@ def _graphics(prep: Prepared, sol: Solution, run: io.Run, ctx: Context) -> None:
     wants = g.animate or plots
     if not wants:
         return
-    if not _can_render(ctx):
+    if not _can_render(ctx, prep.spec.where):
         return
     _interactive_note(st, ctx)
-    viz = ctx.get_viz()
+    viz = ctx.get_viz(prep.spec.where)
     if viz is None or sol.n == 0:
         return
     k = prep.spec.index
-    out = ctx.out_dir
+    where = prep.spec.where
     try:
         if g.animate:
             scene = _scene(prep, sol, slice(None), run.title)
-            viz.animate_gif(scene, str(out / f"run{k}_animation.gif"))
-            viz.animate_html(scene, str(out / f"run{k}_animation.html"))
+            ctx.picture(f"run{k}_animation.gif", where, lambda p: viz.animate_gif(scene, p))
+            ctx.picture(f"run{k}_animation.html", where, lambda p: viz.animate_html(scene, p))
         for t in plots:
             name = f"run{k}_plot_{io._slug(t.request.split()[-1])}_{io._slug(t.item)}.png"
-            viz.plot_png(t, str(out / name), x=1 if plot_driver(prep) is not None else 0)
+            x = 1 if plot_driver(prep) is not None else 0
+            ctx.picture(name, where, lambda p, t=t, x=x: viz.plot_png(t, p, x=x))
     except Exception as exc:
-        ctx.notes(f"run {k}: graphics failed ({type(exc).__name__}: {exc}); the numeric "
-                  "results are not affected")
+        ctx.notes(f"{where[0]}:{where[1]}: run {k}: graphics failed ({type(exc).__name__}: "
+                  f"{printable(str(exc), 200)}); the numeric results are not affected")
 
 
-def _can_render(ctx: Context) -> bool:
+def _can_render(ctx: Context, where: Where) -> bool:
     """True with --out; otherwise say once that graphics were accepted but not rendered."""
     if ctx.out_dir is not None:
         return True
     if not ctx.graphics_note:
         ctx.graphics_note = True
-        ctx.notes("graphics statements (DRAW, ANIMATE, PLOT ...) were accepted but not "
-                  "rendered: give --out DIR to write plots and animations")
+        ctx.notes(f"{where[0]}:{where[1]}: graphics statements (DRAW, ANIMATE, PLOT ...) were "
+                  "accepted but not rendered: give --out DIR to write plots and animations")
     return False
 
 
@@ -1119,10 +1341,10 @@ def _interactive_note(state: State, ctx: Context) -> None:
 
 
 def _draw(state: State, where: tuple[str, int], ctx: Context) -> None:
-    if not _can_render(ctx):
+    if not _can_render(ctx, where):
         return
     _interactive_note(state, ctx)
-    viz = ctx.get_viz()
+    viz = ctx.get_viz(where)
     if viz is None:
         return
     ctx.draws += 1
@@ -1136,11 +1358,13 @@ def _draw(state: State, where: tuple[str, int], ctx: Context) -> None:
             scene = _design_scene(state, where)
         if scene is None:
             return
-        viz.draw_png(scene, 0, str(ctx.out_dir / f"draw{ctx.draws}.png"))
+        ctx.picture(f"draw{ctx.draws}.png", where, lambda p: viz.draw_png(scene, 0, p))
     except InputError as exc:
-        ctx.notes(f"{where[0]}:{where[1]}: DRAW: the model cannot be drawn yet ({exc})")
+        ctx.notes(f"{where[0]}:{where[1]}: DRAW: the model cannot be drawn yet "
+                  f"({printable(str(exc), 200)})")
     except Exception as exc:
-        ctx.notes(f"{where[0]}:{where[1]}: DRAW failed ({type(exc).__name__}: {exc})")
+        ctx.notes(f"{where[0]}:{where[1]}: DRAW failed ({type(exc).__name__}: "
+                  f"{printable(str(exc), 200)})")
 
 
 def _design_scene(state: State, where: tuple[str, int]) -> Any:
@@ -1166,55 +1390,134 @@ def _design_scene(state: State, where: tuple[str, int]) -> Any:
             F = state.links[jd.link1].frame @ L1
             axes.append((j, F[None], float(length)))
     return Scene(links=links, colors=colors, view=g.view, axes=axes, times=np.zeros(1),
-                 title=_title(state))
+                 title=_ascii(_title(state)))
 
 
-def run_deck(deck: Any, out_dir: str | os.PathLike[str] | None = None,
-             echo: Callable[[str], None] | None = None,
-             progress: Callable[[int, int, int], None] | None = None,
-             notes: Callable[[str], None] | None = None) -> list[io.Run]:
-    """Carry out the events of a deck in order; see :meth:`Deck.run`."""
-    out = Path(out_dir) if out_dir is not None else None
-    if out is not None:
-        out.mkdir(parents=True, exist_ok=True)
-    ctx = Context(out, echo or (lambda s: None), notes or (lambda s: None), progress,
-                  Path(deck.path).stem)
-    runs: list[io.Run] = []
-    for kind, payload in deck.events:
-        if kind == "text":
-            ctx.say(payload)
-        elif kind == "run":
-            try:
-                runs.append(execute_run(payload, ctx))
-            except InputError as exc:  # found only now (e.g. a file changed meanwhile)
-                r = io.Run(_title(payload.state), payload.mode)
-                r.failure = f"{payload.where[0]}:{payload.where[1]}: EXECUTE: {exc}"
-                ctx.say(f"*** {r.failure} ***")
-                runs.append(r)
-            except Exception as exc:  # one run's bug must not lose the others
-                r = io.Run(_title(payload.state), payload.mode)
-                r.failure = (f"{payload.where[0]}:{payload.where[1]}: EXECUTE failed "
-                             f"unexpectedly ({type(exc).__name__}: {exc}); please report it")
-                ctx.say(f"*** {r.failure} ***")
-                runs.append(r)
-        elif kind == "draw":
+@contextmanager
+def _warnings_as_notes(ctx: Context, where: Where, messages: list[str] | None = None
+                       ) -> Iterator[None]:
+    """Turn the Python warnings raised inside the block (numpy overflow, matplotlib)
+    into one located note each, so none reaches the terminal raw."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            yield
+        finally:
+            seen: set[str] = set()
+            for w in caught:
+                text = f"{w.category.__name__}: {printable(str(w.message), 120)}"
+                if text in seen:
+                    continue
+                seen.add(text)
+                note = (f"{where[0]}:{where[1]}: a computation gave a warning ({text}, in "
+                        f"{os.path.basename(w.filename)}:{w.lineno})")
+                if issubclass(w.category, RuntimeWarning):
+                    note += ("; values that are not finite are listed as ????: check the sizes "
+                             "of the input numbers")
+                ctx.notes(note)
+                if messages is not None:
+                    messages.append(note)
+
+
+def _one_run(spec: RunSpec, ctx: Context) -> io.Run:
+    """One EXECUTE; its input errors and unexpected failures become the run's failure,
+    Ctrl-C an interrupted run."""
+    loc = f"{spec.where[0]}:{spec.where[1]}"
+    messages: list[str] = []
+    try:
+        with _warnings_as_notes(ctx, spec.where, messages):
+            run = execute_run(spec, ctx)
+    except KeyboardInterrupt:
+        run = io.Run(_title(spec.state), spec.mode, interrupted=True)
+        run.failure = f"{loc}: EXECUTE: interrupted by the user (Ctrl-C) before its results"
+    except InputError as exc:  # found only now (e.g. a file changed meanwhile)
+        run = io.Run(_title(spec.state), spec.mode)
+        run.failure = (str(exc) if exc.where is not None else f"{loc}: EXECUTE: {exc}")
+    except Exception as exc:  # one run's bug must not lose the others
+        run = io.Run(_title(spec.state), spec.mode)
+        run.failure = (f"{loc}: EXECUTE failed unexpectedly ({type(exc).__name__}: "
+                       f"{printable(str(exc), 200)}); please report it")
+    else:
+        run.messages.extend(messages)
+        ctx.stopped = ctx.stopped or run.interrupted
+        return run
+    ctx.say(f"*** {run.failure} ***")
+    if run.interrupted:
+        ctx.stopped = True
+    return run
+
+
+def _event(kind: str, payload: Any, ctx: Context, runs: list[io.Run]) -> None:
+    """Carry out one event of the deck (see :class:`~openimp.imp.interp.Interpreter`)."""
+    if kind == "text":
+        ctx.say(payload)
+    elif kind == "run":
+        runs.append(_one_run(payload, ctx))
+    elif kind == "draw":
+        with _warnings_as_notes(ctx, payload[1]):
             _draw(payload[0], payload[1], ctx)
-        elif kind == "reset":
-            ctx.time0 = 0.0
-        elif kind == "print_on":
-            ctx.print_on = payload
-        elif kind == "store_input":
-            name, lines = payload
-            ctx.files[name] = "\n".join([*lines, "RETURN"]) + "\n"
-    for text in trailing_requests(deck):
-        ctx.notes(text)
-    base = out if out is not None else Path.cwd()
+    elif kind == "reset":
+        ctx.time0 = 0.0
+    elif kind == "print_on":
+        if payload is None:
+            ctx.print_on = None
+        else:
+            ctx.print_on = payload[0]
+            ctx.file_where.setdefault(payload[0], payload[1])
+    elif kind == "store_input":
+        name, lines, where = payload
+        ctx.files[name] = "\n".join([*lines, "RETURN"]) + "\n"
+        ctx.file_where[name] = where
+
+
+def _write_files(ctx: Context, runs: list[io.Run], deck_path: str) -> None:
+    """Write the STORE, PRINT ON and STORE INPUT files into the output folder."""
     store = io.format_store(runs)
     if store:
         ctx.files[f"{ctx.deck_stem}_store.txt"] = store
     for name, lines in ctx.print_files.items():
         ctx.files[name] = "\n".join(lines) + "\n"
     for name, text in ctx.files.items():
-        p = Path(name)
-        io.atomic_write(p if p.is_absolute() else base / p, text)
+        where = ctx.file_where.get(name, (deck_path, 0))
+        try:
+            if ctx.folder.write(name, text, where) is None:
+                ctx.problems(ctx.folder.refused[-1])
+        except OutputError as exc:
+            loc = f"{where[0]}:{where[1]}: " if where[1] > 0 else f"{where[0]}: "
+            ctx.problems(f"{loc}{exc}")
+
+
+def run_deck(deck: Any, out_dir: str | os.PathLike[str] | None = None,
+             echo: Callable[[str], None] | None = None,
+             progress: Callable[[int, int, int], None] | None = None,
+             notes: Callable[[str], None] | None = None,
+             overwrite: bool = False,
+             problems: Callable[[str], None] | None = None) -> list[io.Run]:
+    """Carry out the events of a deck in order; see :meth:`Deck.run`.
+
+    Files go to ``out_dir`` or, without it, to the deck's folder; a file the
+    run did not create is replaced only with ``overwrite``.  ``problems``
+    receives one message per file refused or not written (default: ``notes``).
+    Ctrl-C, or END evaluated in a VALUE, ends the deck after the current run;
+    the files of what was run are still written.
+    """
+    out = Path(out_dir) if out_dir is not None else None
+    base = out if out is not None else (Path(deck.path).parent or Path("."))
+    if out is not None:
+        try:
+            out.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise OutputError(f"the output folder {printable(str(out), 80)} cannot be created "
+                              f"({exc.strerror or type(exc).__name__})", str(out)) from None
+    say_note = notes or (lambda s: None)
+    ctx = Context(out, echo or (lambda s: None), say_note, progress, Path(deck.path).stem,
+                  OutputFolder(base, overwrite), problems or say_note)
+    runs: list[io.Run] = []
+    for kind, payload in deck.events:
+        if ctx.stopped:
+            break
+        _event(kind, payload, ctx, runs)
+    for text in trailing_requests(deck):
+        ctx.notes(text)
+    _write_files(ctx, runs, deck.path)
     return runs

@@ -48,6 +48,7 @@ from openimp.joints.curves import (
     wrap_angle,
 )
 from openimp.joints.lower import angle_of, er_translation_ops, rotation_to_er
+from openimp.limits import MAX_GEAR_RATIO
 from openimp.mat4 import elem_rot3, eye4, mm3, rotz4
 from openimp.mat4 import er_rotation as _er_rot
 
@@ -523,6 +524,7 @@ def _gear_consts(name: str, kw: dict[str, Any]) -> np.ndarray:
             R, Rp = _gear_radii(ratio, D0)
         else:
             R = Rp = D0 = math.nan  # completed from the frames at assembly
+    _check_gear_ratio(args, ratio)
     alpha = args.number("pressure_angle", math.radians(20.0))
     if not 0.0 <= alpha < 0.5 * math.pi:
         raise args.err(f"pressure_angle must be in [0, pi/2) radians, got {alpha:g}")
@@ -533,6 +535,16 @@ def _gear_consts(name: str, kw: dict[str, Any]) -> np.ndarray:
     if sg not in (-1.0, 0.0, 1.0):
         raise args.err(f"load_sign must be -1, 0 or +1, got {sg:g}")
     return np.array([R, Rp, D0, math.cos(alpha), math.sin(alpha), math.tan(beta), sg, ratio])
+
+
+def _check_gear_ratio(args: ConstArgs, ratio: float) -> None:
+    """Refuse a ratio (R/R') whose gear radii or turn counting would overflow:
+    |ratio| and |1 + ratio| within [1/MAX_GEAR_RATIO, MAX_GEAR_RATIO]."""
+    low = 1.0 / MAX_GEAR_RATIO
+    if not (low <= abs(ratio) <= MAX_GEAR_RATIO and low <= abs(1.0 + ratio)):
+        raise args.err(f"the ratio {ratio:g} is out of range: |ratio| must lie between "
+                       f"{low:g} and {MAX_GEAR_RATIO:g} and |1 + ratio| be at least {low:g} "
+                       "(limit MAX_GEAR_RATIO)")
 
 
 def _gear_complete(name: str, Phi: np.ndarray, c: np.ndarray) -> None:
@@ -563,6 +575,10 @@ def _gear_theta(q: np.ndarray, c: np.ndarray) -> float:
 
 def _best_turns(base: float, slope: float, target: float, nturns: int = 2000) -> int:
     """k minimising |wrap(base + slope 2 pi k - target)|, the smallest |k| among ties."""
+    if not (math.isfinite(base) and math.isfinite(target)
+            and math.isfinite(slope * _TWO_PI * nturns)):
+        raise InputError(f"the turn count of a gear cannot be found (angle {base:g}, ratio "
+                         f"factor {slope:g}, target {target:g}); check the gear data")
     k = np.arange(-nturns, nturns + 1)
     err = np.abs((base + slope * _TWO_PI * k - target + math.pi) % _TWO_PI - math.pi)
     best = float(err.min())
