@@ -49,3 +49,61 @@ def test_no_helper_on_a_warm_cache_or_when_disabled(tmp_path, monkeypatch):
     (tmp_path / "track.track-1.py311.nbi").unlink()
     monkeypatch.setenv("OPENIMP_NO_WARMUP", "1")
     assert _warm.start() is None
+
+
+def test_no_helper_on_a_busy_machine(tmp_path, monkeypatch):
+    """On a cold cache the helper still stays off when the load average leaves no core
+    beside the run's own (it would slow a loaded 2-core machine down)."""
+    monkeypatch.setattr(numba.config, "CACHE_DIR", str(tmp_path))
+    monkeypatch.delenv("OPENIMP_NO_WARMUP", raising=False)
+    monkeypatch.setattr(_warm.os, "cpu_count", lambda: 2)
+    monkeypatch.setattr(_warm.os, "getloadavg", lambda: (1.0, 1.0, 1.0))
+    assert _warm.machine_busy()
+    assert _warm.start() is None
+    monkeypatch.setattr(_warm.os, "getloadavg", lambda: (0.2, 0.2, 0.2))
+    assert not _warm.machine_busy()
+
+
+def test_deck_flavours_follow_the_joint_keywords(tmp_path):
+    """A deck with a joint of a general kind (GEAR, SPHERE, CAM ...) wants the general
+    kernels first; one of pins and slides only the closed-form ones."""
+    pins = tmp_path / "pins.imp"
+    pins.write_text("ZPIN (BASE, CRANK) = A\nXSLIDE (CRANK, S) = B\nEXECUTE\n")
+    balls = tmp_path / "balls.imp"
+    balls.write_text("ZPIN (BASE, CRANK) = A\nSPHERE (CRANK, C) = B\nEXECUTE\n")
+    assert _warm.deck_flavours(pins)[0] == _warm.LOWER
+    assert _warm.deck_flavours(balls)[0] == _warm.GENERAL
+    assert _warm.deck_flavours(tmp_path / "missing.imp") == [_warm.LOWER, _warm.GENERAL]
+
+
+def test_announcer_says_once_that_it_compiles_and_how_long():
+    """The first compile of an openimp kernel gives one located note with the expected
+    time, nested compiles and other kernels add progress only, a library's compile is
+    not counted, and close() reports the count; nothing is said when nothing compiled."""
+    import io as _io
+    import types
+
+    buf = _io.StringIO()
+    talk = _warm.Announcer(buf, live=False, prefix="deck.imp: ")
+
+    def kernel(name, module="openimp.kinematics.posture"):
+        fn = types.FunctionType((lambda: None).__code__, {}, name)
+        fn.__module__ = module
+        return types.SimpleNamespace(py_func=fn)
+
+    talk._on_start(kernel("newton"))       # top level
+    talk._on_start(kernel("position"))     # nested in newton
+    talk.depth -= 2
+    talk._on_start(kernel("helper", module="numpy.linalg"))
+    talk.depth -= 1
+    talk._on_start(kernel("sweep_steps"))
+    talk.depth -= 1
+    talk.close()
+    lines = buf.getvalue().splitlines()
+    assert len(lines) == 2
+    assert lines[0].startswith("openimp: note: deck.imp: compiling the kinematic kernels")
+    assert f"about {_warm.COMPILE_SECONDS} s" in lines[0]
+    assert lines[1].startswith("openimp: note: deck.imp: 2 kernels compiled and cached in")
+    quiet = _io.StringIO()
+    _warm.Announcer(quiet, live=False).close()
+    assert quiet.getvalue() == ""

@@ -174,8 +174,10 @@ class Announcer:
     says how long it took.
     """
 
-    def __init__(self, stream: TextIO, live: bool, what: str = "kinematic") -> None:
+    def __init__(self, stream: TextIO, live: bool, what: str = "kinematic",
+                 prefix: str = "") -> None:
         self.stream = stream
+        self.prefix = prefix
         self.live = live
         self.what = what
         self.depth = 0
@@ -208,7 +210,8 @@ class Announcer:
         if self.started is None:
             self.started = time.monotonic()
             self.stream.write(
-                f"openimp: compiling the {self.what} kernels (the first run of this version "
+                f"openimp: note: {self.prefix}compiling the {self.what} kernels (the first run "
+                f"of this version "
                 f"of openimp does this once: about {COMPILE_SECONDS} s of CPU, later runs "
                 "load them from the cache)\n")
             self.stream.flush()
@@ -229,7 +232,8 @@ class Announcer:
         if self.started is not None:
             if self.live:
                 self.stream.write("\r" + " " * 70 + "\r")
-            self.stream.write(f"openimp: {self.count} kernels compiled and cached in "
+            self.stream.write(f"openimp: note: {self.prefix}{self.count} kernels compiled and "
+                              f"cached in "
                               f"{self.finished - self.started:.0f} s\n")
             self.stream.flush()
             self.started = None

@@ -252,14 +252,24 @@ def _report(runs: list, problems: list[str]) -> int:  # type: ignore[type-arg]
 
 def _cmd_run(args: argparse.Namespace) -> int:
     from openimp import _warm
-    from openimp.errors import OutputError
-    from openimp.files import printable
 
     problem = _target_problem(args)
     if problem is not None:
         _err(f"openimp: error: {problem}")
         return EXIT_INPUT
-    _warm.start()  # on a cold kernel cache the rate kernels compile on the other core
+    # a cold kernel cache: say so, and compile the rate kernels on an idle core
+    _warm.start(_warm.deck_flavours(args.deck))
+    talk = _warm.Announcer(sys.stderr, sys.stderr.isatty(), prefix=f"{args.deck}: ")
+    try:
+        return _run_deck(args, talk)
+    finally:
+        talk.close()
+
+
+def _run_deck(args: argparse.Namespace, talk: Any) -> int:
+    from openimp.errors import OutputError
+    from openimp.files import printable
+
     deck = _load(args.deck, args.allow_read or ())
     if deck is None:
         return EXIT_INPUT
