@@ -34,7 +34,8 @@ import numpy as np
 import pytest
 
 from openimp import Model
-from openimp.imp.interp import DeckError, load
+from openimp.imp.deck import load
+from openimp.imp.interp import DeckError
 
 DECKS = Path(__file__).parent / "decks"
 EXAMPLES = Path(__file__).parent.parent / "examples"

@@ -29,8 +29,10 @@ from openimp import cli, files, limits
 from openimp.errors import InputError, OutputError
 from openimp.imp import expr as expr_mod
 from openimp.imp import parser as parser_mod
-from openimp.imp import runner as runner_mod
-from openimp.imp.interp import DeckError, load
+from openimp.imp.deck import load
+from openimp.imp.interp import DeckError
+from openimp.imp.run import output as output_mod
+from openimp.imp.run import prepare as prepare_mod
 
 DECKS = Path(__file__).parent / "decks"
 FOURBAR = (DECKS / "run_fourbar.imp").read_text()
@@ -406,7 +408,7 @@ def test_limits_are_input_errors_naming_the_statement(tmp_path: Path, body: str,
 
 
 def test_results_are_capped(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(runner_mod, "MAX_RESULT_BYTES", 100_000)
+    monkeypatch.setattr(prepare_mod, "MAX_RESULT_BYTES", 100_000)
     d = deck(tmp_path, "DATA POSITION (A) = 0, 1, 3000\nEXECUTE\nEND\n")
     status, _, err = run_cli("check", d)
     assert status == 2
@@ -466,13 +468,13 @@ def test_zero_fill_warnings_are_located(tmp_path: Path) -> None:
 
 def test_numeric_warnings_become_located_notes(tmp_path: Path,
                                                monkeypatch: pytest.MonkeyPatch) -> None:
-    real = runner_mod.execute_run
+    real = output_mod.execute_run
 
     def noisy(spec, ctx):  # type: ignore[no-untyped-def]
         np.float64(1e308) * 10.0  # overflows on purpose
         return real(spec, ctx)
 
-    monkeypatch.setattr(runner_mod, "execute_run", noisy)
+    monkeypatch.setattr(output_mod, "execute_run", noisy)
     d = deck(tmp_path, "DATA POSITION (A) = 0, 30, 2\nEXECUTE\nEND\n")
     status, _, err = run_cli("run", d, "--quiet")
     assert status == 0

@@ -18,7 +18,7 @@ import pytest
 from PIL import Image
 
 from openimp.errors import InputError
-from openimp.io import Table
+from openimp.results import Table
 from openimp.viz import (
     COLORS,
     Scene,

@@ -27,9 +27,9 @@ __version__ = "0.1.0"
 
 
 def load(path: str, **options: Any) -> Any:
-    """Read an IMP deck: the model it builds plus its requests (see openimp.imp.interp.load;
+    """Read an IMP deck: the model it builds plus its requests (see openimp.imp.deck.load;
     ``options``: ``check``, ``allow_read``)."""
-    from openimp.imp.interp import load as _load
+    from openimp.imp.deck import load as _load
 
     return _load(path, **options)
 

@@ -141,7 +141,7 @@ def _print_errors(exc: Exception, deck: str) -> None:
 def _load(path: str, allow_read: Sequence[str] = ()) -> object | None:
     """The parsed deck, or None after its input errors are printed on stderr."""
     from openimp.errors import InputError
-    from openimp.imp.interp import load
+    from openimp.imp.deck import load
 
     try:
         deck = load(path, allow_read=allow_read)
@@ -157,7 +157,7 @@ def _load(path: str, allow_read: Sequence[str] = ()) -> object | None:
 
 def _cmd_check(args: argparse.Namespace) -> int:
     from openimp.imp.interp import DEFAULT_TITLE
-    from openimp.imp.runner import not_produced, trailing_requests, validate
+    from openimp.imp.run import not_produced, trailing_requests, validate
 
     deck: Any = _load(args.deck, args.allow_read or ())
     if deck is None:

@@ -27,6 +27,7 @@ name or a word read from a file) in a message.
 from __future__ import annotations
 
 import os
+import re
 import secrets
 import stat
 from collections.abc import Callable, Iterable, Sequence
@@ -361,3 +362,8 @@ class OutputFolder:
         atomic_write(p, data)
         self.claim(p)
         return p
+
+
+def slug(s: str) -> str:
+    """``s`` as a file-name part: letters and digits, other runs as ``_``, lower case."""
+    return re.sub(r"[^A-Za-z0-9]+", "_", s).strip("_").lower() or "table"

@@ -1,4 +1,5 @@
-"""Result containers of the analyses: one trajectory type for sweeps and time responses.
+"""Result containers of the analyses: one trajectory type for sweeps and time responses,
+and the tables and runs of a deck.
 
 A :class:`Trajectory` stores the joint variables of every solved step (and
 their rates when the analysis had them), the quality index, the rank and the
@@ -11,7 +12,9 @@ module imports no analysis: results sit at the top of the layers
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -78,6 +81,15 @@ class Trajectory:
         self._qdd = qdd
         self.consistency = cons
         self._bodies.clear()
+
+    @classmethod
+    def empty(cls, system: Any, tracker: Tracker) -> Trajectory:
+        """A trajectory of no steps (with rates) of ``system``."""
+        nq = system.nq
+        out = cls(system, np.zeros((0, nq)), np.zeros(0), np.zeros(0, np.int64),
+                  np.zeros((0, nq), bool), np.zeros(0, np.int64), [], tracker=tracker)
+        out.set_rates(np.zeros((0, nq)), np.zeros((0, nq)), np.zeros(0))
+        return out
 
     @classmethod
     def concatenate(cls, parts: Sequence[Trajectory], message: str = "") -> Trajectory:
@@ -347,3 +359,74 @@ class Trajectory:
         rates = ", with rates" if self.has_rates else ""
         gc = ", ".join(self.sgc) or "none"
         return f"Trajectory({self.nsteps} steps{rates}, {state}; specified: {gc})"
+
+
+# =============================================================================
+# Tables of a run
+# =============================================================================
+@dataclass
+class Table:
+    """One listed table: request, item, columns, units and rows.
+
+    What a request produces: the request that asked for it (``LIST
+    POSITION``), the item (``joint JT5``), column names with units and rows of
+    numbers in the units the listing prints (degrees where IMP prints degrees).
+    """
+
+    request: str
+    item: str
+    columns: list[str]
+    units: list[str]
+    rows: np.ndarray
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dict (NaN written as null)."""
+        arr = np.asarray(self.rows, dtype=float)
+        rows = arr.tolist()
+        if not np.all(np.isfinite(arr)):
+            rows = [[v if math.isfinite(v) else None for v in r] for r in rows]
+        return {"request": self.request, "item": self.item, "columns": list(self.columns),
+                "units": list(self.units), "rows": rows}
+
+
+@dataclass
+class Run:
+    """The output of one EXECUTE: its title, mode, tables and messages."""
+
+    title: str
+    mode: str
+    tables: list[Table] = field(default_factory=list)
+    messages: list[str] = field(default_factory=list)
+    #: set when the analysis stopped early (what was computed is still listed)
+    failure: str = ""
+    #: requests that could not be produced (analyses not built yet), one message each
+    unsupported: list[str] = field(default_factory=list)
+    #: set when the user interrupted the run (Ctrl-C); what was solved is kept
+    interrupted: bool = False
+
+    @property
+    def ok(self) -> bool:
+        """True when the run finished and produced every request."""
+        return not self.failure and not self.unsupported
+
+    def table(self, request: str, item: str) -> Table:
+        """The table of a request (``'LIST POSITION'``) and item (``'joint A'``)."""
+        for t in self.tables:
+            if t.request == request and t.item == item:
+                return t
+        have = ", ".join(f"{t.request} / {t.item}" for t in self.tables) or "none"
+        raise KeyError(f"no table {request} / {item} in run {self.title!r} (tables: {have})")
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dict of the run."""
+        d: dict[str, Any] = {"title": self.title, "mode": self.mode,
+                             "tables": [t.to_dict() for t in self.tables]}
+        if self.messages:
+            d["messages"] = list(self.messages)
+        if self.failure:
+            d["failure"] = self.failure
+        if self.unsupported:
+            d["unsupported"] = list(self.unsupported)
+        if self.interrupted:
+            d["interrupted"] = True
+        return d

@@ -9,7 +9,7 @@ distance (``DATA DRAW``).  From it:
 * :func:`animate_gif` draws every step to an animated GIF (ANIMATE);
 * :func:`animate_html` writes one self-contained HTML page (no network) with
   the projected polylines of every step, a play/pause button and a time slider;
-* :func:`plot_png` plots the columns of a result :class:`~openimp.io.Table`
+* :func:`plot_png` plots the columns of a result :class:`~openimp.results.Table`
   against one of its columns, the first (time or step) by default (PLOT).
 
 Screen coordinates are x to the right and y up.  The standard views map global
@@ -53,7 +53,7 @@ if TYPE_CHECKING:
     from matplotlib.lines import Line2D
     from matplotlib.text import Text
 
-    from openimp.io import Table
+    from openimp.results import Table
 
 __all__ = [
     "AXIS_COLORS",

@@ -1,0 +1,20 @@
+"""Running the EXECUTEs of a deck, split by concern:
+
+* :mod:`~openimp.imp.run.prepare`: the model built and checked, request items,
+  what will not be produced, output times (every mode);
+* :mod:`~openimp.imp.run.kinematic`: the kinematic runner (input motions,
+  postures and rates); the static and dynamic runners will sit beside it;
+* :mod:`~openimp.imp.run.solution`: what a run solved (a trajectory and how
+  the run ended);
+* :mod:`~openimp.imp.run.quantities`: tables and PRINT text from a solution;
+* :mod:`~openimp.imp.run.output`: the deck's events in order, each EXECUTE
+  through the runner of its mode (:data:`~openimp.imp.run.output.SOLVERS`),
+  listings, pictures and files.
+"""
+
+from openimp.imp.run.output import SOLVERS, Context, execute_run, run_deck
+from openimp.imp.run.prepare import Prepared, not_produced, trailing_requests, validate
+from openimp.imp.run.solution import Solution
+
+__all__ = ["SOLVERS", "Context", "Prepared", "Solution", "execute_run", "not_produced",
+           "run_deck", "trailing_requests", "validate"]

@@ -1,0 +1,334 @@
+"""The kinematic runner: input motions, postures, velocities and accelerations.
+
+For every EXECUTE in kinematic mode (no FIND statement):
+
+1. the SGC values at every output time: a ``DATA POSITION`` joint moves one
+   increment per output step (``start + increment * min(k, nsteps)``) at the
+   constant DATA VELOCITY / ACCEL; a ``DATA MOTION`` entry is a constant
+   (degrees or lengths, zero rates) or a VALUE evaluated with its two time
+   derivatives (radians); a VALUE that reads the model (``POSITION(...)`` ...)
+   is evaluated step by step from the last solved posture, as IMP did;
+2. the postures, velocities and accelerations, solved in chunks
+   (:func:`openimp.kinematics.sweep`, free coordinates held as IMP's
+   kinematic mode does), gathered in one trajectory.
+
+A posture that cannot be reached stops the run; everything computed before
+is kept, and the message names the step, the time and the last good posture.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from openimp.errors import InputError
+from openimp.imp.expr import Expression, SimulationStop
+from openimp.imp.interp import State
+from openimp.imp.run.prepare import Driver, Prepared
+from openimp.imp.run.quantities import _resolver
+from openimp.imp.run.solution import Solution
+from openimp.kinematics import free_coordinate, sweep
+from openimp.kinematics.track import tracker
+from openimp.limits import MAX_NUMBER, MAX_RATE, number_text
+from openimp.results import Trajectory
+
+_NAN = math.nan
+
+
+#: steps solved per call of the sweep (progress is reported between chunks)
+CHUNK = 2000
+
+
+def _value_reads_model(name: str, values: dict[str, Expression], seen: set[str]) -> bool:
+    if name in seen or name not in values:
+        return False
+    seen.add(name)
+    ex = values[name]
+    if any(kind in ("POSITION", "VELOCITY", "ACCEL", "FORCE") for kind, _ in ex.references()):
+        return True
+    return any(_value_reads_model(v, values, seen) for v in ex.value_names())
+
+
+def reads_model(state: State, drivers: list[Driver]) -> bool:
+    """True when a DATA MOTION VALUE reads model quantities (step-by-step driving)."""
+    for d in drivers:
+        if d.inp.kind == "MOTION":
+            m = d.inp.motions[d.var]
+            if isinstance(m, str) and _value_reads_model(m, state.values, set()):
+                return True
+    return False
+
+
+def _const(kind: str, v: float) -> float:
+    return math.radians(v) if kind == "angle" else float(v)
+
+
+@dataclass
+class Halt:
+    """Why the input motions end before the last output step: a VALUE evaluated
+    RETURN or END (a stop the language asks for) or gave a value beyond the
+    limits (a failure)."""
+
+    step: int
+    text: str
+    kind: str  # "RETURN", "END" or "LIMIT"
+
+
+class Motions:
+    """Values, rates and accelerations of the SGCs (openimp units, signed).
+
+    :attr:`halt` is set when a DATA MOTION VALUE stops the run at some step
+    (RETURN or END evaluated, or a value beyond ``MAX_NUMBER`` / a rate beyond
+    ``MAX_RATE``); the steps from there on are not filled.
+    """
+
+    def __init__(self, prep: Prepared, times: np.ndarray, notes: list[str]) -> None:
+        self.prep = prep
+        self.times = times
+        self.notes = notes
+        self.state = prep.spec.state
+        n, nd = len(times), len(prep.drivers)
+        self.p = np.zeros((n, nd))
+        self.v = np.zeros((n, nd))
+        self.a = np.zeros((n, nd))
+        self.undefined: set[str] = set()
+        self.halt: Halt | None = None
+
+    def fill(self, k0: int, k1: int, resolver: Callable[[int], Any] | None) -> None:
+        """Fill steps k0..k1-1 (``resolver(k)`` gives the resolve function at step k)."""
+        for j, d in enumerate(self.prep.drivers):
+            inp = d.inp
+            if inp.kind == "POSITION":
+                k = np.arange(k0, k1)
+                val = inp.start + inp.increment * np.minimum(k, inp.nsteps)
+                self.p[k0:k1, j] = np.radians(val) if d.kind == "angle" else val
+                self.v[k0:k1, j] = inp.velocity
+                self.a[k0:k1, j] = inp.accel
+                continue
+            m = inp.motions[d.var]
+            if not isinstance(m, str):
+                self.p[k0:k1, j] = _const(d.kind, float(m))
+                continue
+            for k in range(k0, k1):
+                if self.halt is not None and k >= self.halt.step:
+                    break
+                vals = self._jet(d, m, k, resolver)
+                if vals is not None:
+                    self.p[k, j], self.v[k, j], self.a[k, j] = vals
+        s = np.array([d.sign for d in self.prep.drivers])
+        if len(s):
+            self.p[k0:k1] *= s
+            self.v[k0:k1] *= s
+            self.a[k0:k1] *= s
+
+    def _jet(self, d: Driver, m: str, k: int, resolver: Callable[[int], Any] | None
+             ) -> list[float] | None:
+        """Value, rate and acceleration of VALUE ``m`` at step ``k`` (None: halted)."""
+        resolve = resolver(k) if resolver is not None else _time_only(self.times[k])
+        try:
+            jet = self.state.values[m].derivatives(self.state.values, resolve)
+        except SimulationStop as stop:
+            self._halt(k, stop.kind, f"{stop.where[0]}:{stop.where[1]}: VALUE {m} (DATA MOTION "
+                       f"of joint {d.joint}) evaluated {stop.kind} at time "
+                       f"{self.times[k]:.6f}")
+            return None
+        vals = []
+        for i, x in enumerate(jet):
+            if not math.isfinite(x):
+                if m not in self.undefined:
+                    self.undefined.add(m)
+                    self.notes.append(
+                        f"{d.inp.where[0]}:{d.inp.where[1]}: VALUE {m} (DATA MOTION of joint "
+                        f"{d.joint}) is undefined at time {self.times[k]:.6f}; IMP uses 0 "
+                        "for it")
+                x = 0.0
+            top, name = (MAX_NUMBER, "MAX_NUMBER") if i == 0 else (MAX_RATE, "MAX_RATE")
+            if abs(x) > top:
+                what = ("value", "rate", "acceleration")[i]
+                self._halt(k, "LIMIT", f"{d.inp.where[0]}:{d.inp.where[1]}: DATA MOTION of "
+                           f"joint {d.joint}: the {what} of VALUE {m} at time "
+                           f"{self.times[k]:.6f} is {number_text(x)}, beyond "
+                           f"±{number_text(top)} (limit {name})")
+                return None
+            vals.append(x)
+        return vals
+
+    def _halt(self, k: int, kind: str, text: str) -> None:
+        """Record the first step at which the motions stop."""
+        if self.halt is None or k < self.halt.step:
+            self.halt = Halt(k, text, kind)
+
+
+def _time_only(t: float) -> Callable[[str, str | None, int], float]:
+    def resolve(kind: str, name: str | None, comp: int) -> float:
+        return t if kind == "TIME" else _NAN
+
+    return resolve
+
+
+def solve(prep: Prepared, times: np.ndarray, start: np.ndarray | None,
+          notes: list[str], progress: Callable[[int, int], None] | None = None) -> Solution:
+    """Solve every step of a run (see the module docstring).
+
+    Ctrl-C (KeyboardInterrupt) while solving ends the run with what was solved
+    (:attr:`Solution.interrupted`); a DATA MOTION VALUE that evaluates RETURN or
+    END ends it at that step (:attr:`Solution.stop`).
+    """
+    system = prep.system
+    st = prep.spec.state
+    drivers = prep.drivers
+    parts: list[Trajectory] = []
+    empty = Trajectory.empty(system, tracker(system))
+    motions = Motions(prep, times, notes)
+    n = len(times)
+    tol, maxit = st.tolerance("POSITION")
+    tol = tol if "POSITION" in st.zero else 1e-10
+    maxit = int(maxit or 25) if "POSITION" in st.zero else 25
+    ptol = st.tolerance("SYSTEM")[0] if "SYSTEM" in st.zero else 1e-10
+    lagged = reads_model(st, drivers)
+    cur = None if start is None else np.array(start, float)
+    if not drivers:
+        notes.append("No input motion is given (DATA POSITION or DATA MOTION): every free "
+                      "coordinate is held at its value.")
+        col = _free_column(system, cur)
+        if col is None:
+            return _structure(prep, times, cur)
+        drv_cols = [col]
+        q0 = system.modeling_q if cur is None else cur
+        fixed = np.full((n, 1), q0[col])
+        motions.p, motions.v, motions.a = fixed, np.zeros((n, 1)), np.zeros((n, 1))
+    else:
+        drv_cols = [d.column for d in drivers]
+        if not lagged:
+            motions.fill(0, n, None)
+    names = [system.var_names[c] for c in drv_cols]
+    opts = {"tol": tol, "pivot_tol": ptol, "maxit": maxit, "hold_free": True}
+    message = ""
+    interrupted = False
+    last: Solution | None = None
+    k = 0
+    try:
+        if lagged:  # the values at the start posture: a sweep that holds every driver
+            last = _start_values(system, cur, drv_cols, names, times, opts)
+        while k < n:
+            m = 1 if lagged else min(CHUNK, n - k)
+            if lagged:
+                ref = last if last is not None and last.n else None
+                motions.fill(k, k + 1, lambda kk, s=ref: _resolver(
+                    prep, s if s is not None else Solution(empty, times[:0]),
+                    0 if s is not None else -1, times[kk], motions, kk, notes))
+            if motions.halt is not None:
+                m = min(m, motions.halt.step - k)
+                if m <= 0:
+                    break
+            sl = slice(k, k + m)
+            try:
+                res = sweep(system, {c: motions.p[sl, j] for j, c in enumerate(names)},
+                            rates={c: motions.v[sl, j] for j, c in enumerate(names)},
+                            accels={c: motions.a[sl, j] for j, c in enumerate(names)},
+                            start=cur, **opts)
+            except InputError as exc:
+                message = _stop_message(prep, times, k, motions, f"{exc}")
+                break
+            parts.append(res)
+            if lagged and res.nsteps:
+                last = Solution(res, times[k:k + 1])
+            if res.message:
+                message = _stop_message(prep, times, k + res.nsteps, motions,
+                                        _why(res.message))
+                break
+            cur = res.q[-1]
+            k += m
+            if progress is not None:
+                progress(k, n)
+    except KeyboardInterrupt:
+        interrupted = True
+        k = sum(p.nsteps for p in parts)
+        message = _stop_message(prep, times, min(k, n - 1), motions,
+                                "interrupted by the user (Ctrl-C)", want=False)
+    sol = Solution.of(parts, empty, times, message)
+    sol.interrupted = interrupted
+    if motions.halt is not None and not message:
+        _halted(sol, prep, times, motions)
+    return sol
+
+
+def _start_values(system: Any, cur: np.ndarray | None, drv_cols: list[int], names: list[str],
+                  times: np.ndarray, opts: dict[str, Any]) -> Solution | None:
+    """The start posture solved with every driver held (for VALUEs that read the model)."""
+    q0 = system.modeling_q if cur is None else cur
+    try:
+        pre = sweep(system, {c: [q0[drv_cols[j]]] for j, c in enumerate(names)},
+                    rates={c: [0.0] for c in names}, start=cur, **opts)
+    except InputError:
+        return None
+    return Solution(pre, times[:1])
+
+
+def _halted(sol: Solution, prep: Prepared, times: np.ndarray, motions: Motions) -> None:
+    """Record on ``sol`` why the motions ended at their halt step."""
+    halt = motions.halt
+    assert halt is not None
+    k = halt.step
+    listed = (f"the {k} position(s) before it are listed" if k > 0 else
+              "no position was solved")
+    if halt.kind == "LIMIT":
+        sol.message = _stop_message(prep, times, k, motions, halt.text, want=False)
+    elif halt.kind == "END":
+        sol.stop = (f"{halt.text}: the run stops there and no further EXECUTE runs (END in a "
+                    f"VALUE leaves IMP); {listed}")
+        sol.end = True
+    else:
+        sol.stop = f"{halt.text}: the run stops there (RETURN in a VALUE); {listed}"
+
+
+def _why(msg: str) -> str:
+    """The reason part of a sweep failure message (without its own step numbers)."""
+    if ": " in msg:
+        msg = msg.split(": ", 1)[1]
+    return msg.split(" The last good posture")[0].rstrip(" .")
+
+
+def _free_column(system: Any, q: np.ndarray | None) -> int | None:
+    """A free joint variable to hold when a run has no input motion (None for a structure)."""
+    return free_coordinate(system, None if q is None else system.to_internal(q))
+
+
+def _structure(prep: Prepared, times: np.ndarray, cur: np.ndarray | None) -> Solution:
+    """A structure (mobility 0, no input): its one posture at every output time."""
+    st = prep.spec.state
+    tol = st.tolerance("POSITION")[0] if "POSITION" in st.zero else 1e-10
+    ptol = st.tolerance("SYSTEM")[0] if "SYSTEM" in st.zero else 1e-10
+    res = sweep(prep.system, {}, rates={}, steps=len(times), tol=tol, pivot_tol=ptol,
+                            hold_free=True, start=cur)
+    return Solution(res, times[:res.nsteps], res.message)
+
+
+def _stop_message(prep: Prepared, times: np.ndarray, k: int, motions: Motions, why: str,
+                  want: bool = True) -> str:
+    """Why the run stopped at step ``k`` and what it kept; ``want`` shows the
+    input posture asked for at ``k``."""
+    drivers = prep.drivers
+
+    def sgc_text(step: int) -> str:
+        parts = []
+        for j, d in enumerate(drivers):
+            v = motions.p[step, j] * d.sign
+            v = math.degrees(v) if d.kind == "angle" else v
+            parts.append(f"{d.joint} {d.var + 1} = {v:.6g}" + (" deg" if d.kind == "angle"
+                                                                 else ""))
+        return ", ".join(parts) or "no input"
+
+    at = min(k, len(times) - 1)
+    asked = f"; {sgc_text(at)}" if want else ""
+    out = f"the run stopped at step {k} (time {times[at]:.6f}{asked}): {why}"
+    if k > 0:
+        out += f". The last good posture is step {k - 1} (time {times[k - 1]:.6f}; " \
+               f"{sgc_text(k - 1)}); the {k} position(s) solved are listed"
+    else:
+        out += ". No position was solved"
+    return out

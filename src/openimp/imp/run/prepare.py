@@ -1,0 +1,327 @@
+"""Preparing a run, whatever its mode: the model built and compiled, the inputs
+checked, the request items listed, what will not be produced said before
+anything is solved, and the output times.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from openimp.errors import InputError
+from openimp.imp.interp import (
+    Built,
+    InputDef,
+    Request,
+    RunSpec,
+    State,
+    build_model,
+    compile_built,
+)
+from openimp.kinematics import check_drivers
+from openimp.limits import MAX_RESULT_BYTES, MAX_STEPS, number_text
+from openimp.system import make_state
+
+
+@dataclass
+class Driver:
+    """One SGC: an IMP joint variable and the openimp column it drives."""
+
+    joint: str
+    var: int  # IMP variable index (0-based)
+    column: int  # openimp column in q
+    sign: float
+    kind: str  # angle or length
+    inp: InputDef
+
+
+@dataclass
+class Item:
+    """One item of one request: what to tabulate."""
+
+    request: Request
+    kind: str  # joint, point, link, spring, damper, value, heading
+    name: str
+
+
+@dataclass
+class Prepared:
+    """A validated run: built model, compiled system, drivers, request items."""
+
+    spec: RunSpec
+    built: Built
+    system: Any
+    drivers: list[Driver]
+    items: list[Item]
+    unsupported: list[Request]
+
+
+def _request_items(state: State, built: Built) -> tuple[list[Item], list[Request]]:
+    items: list[Item] = []
+    unsupported: list[Request] = []
+    seen: set[tuple[str, str, str, str]] = set()
+    springs = state.extras.get("springs", {})
+    dampers = state.extras.get("dampers", {})
+    model = built.model
+    for req in state.requests:
+        q = req.quantity
+        if q in ("FORCE", "FREQUENCY", "DYNAMICS"):
+            unsupported.append(req)
+            continue
+        if q == "HEADING":
+            key = (req.family, q, "heading", "")
+            if key not in seen:
+                seen.add(key)
+                items.append(Item(req, "heading", ""))
+            continue
+        if q == "VALUE":
+            names = list(state.values) if req.all else []
+            names += req.names
+            for n in names:
+                if n not in state.values:
+                    raise InputError(f"{req.keyword} statement: VALUE {n} is not defined by "
+                                     "EXECUTE", req.where)
+                key = (req.family, q, "value", n)
+                if key not in seen:
+                    seen.add(key)
+                    items.append(Item(req, "value", n))
+            continue
+        names = []
+        if req.all:
+            names += list(model.joints) + list(model.points) + list(springs) + list(dampers)
+        names += req.names
+        for n in names:
+            if n in model.joints:
+                kind = "joint"
+            elif n in model.points:
+                kind = "point"
+            elif n in springs:
+                kind = "spring"
+            elif n in dampers:
+                kind = "damper"
+            elif n in model.body_frames:
+                kind = "link"
+                if req.family == "PLOT":
+                    raise InputError(f"{req.keyword} statement: links cannot be plotted "
+                                     f"({n}); plot its points or joints", req.where)
+            elif n in state.points:
+                raise InputError(f"{req.keyword} statement: point {n} is on a link that is in "
+                                 "no joint, so it was deleted at EXECUTE", req.where)
+            else:
+                raise InputError(f"{req.keyword} statement: {n} is not a joint, point, link, "
+                                 "spring or damper defined by EXECUTE", req.where)
+            if kind in ("spring", "damper"):
+                pts = (springs if kind == "spring" else dampers)[n]["points"]
+                for p in pts:
+                    if p not in model.points:
+                        raise InputError(f"{req.keyword} statement: {kind} {n} ends at point "
+                                         f"{p}, which was deleted at EXECUTE", req.where)
+            key = (req.family, q, kind, n)
+            if key not in seen:
+                seen.add(key)
+                items.append(Item(req, kind, n))
+    return items, unsupported
+
+
+def _drivers(state: State, built: Built, system: Any) -> list[Driver]:
+    out: list[Driver] = []
+    for name, inp in state.inputs.items():
+        if name not in built.joints:
+            continue
+        ij = built.joints[name][0]
+        sl = system.joint_vars(name)
+        if inp.kind == "POSITION":
+            vars_ = [0]
+        else:
+            vars_ = [k for k, m in enumerate(inp.motions) if m is not None]
+            for k in vars_:
+                m = inp.motions[k]
+                if isinstance(m, str) and m not in state.values:
+                    raise InputError(f"DATA MOTION statement: VALUE {m} is not defined by "
+                                     "EXECUTE", inp.where)
+        for k in vars_:
+            d = ij.drive[k]
+            if d is None:  # pragma: no cover - refused when the statement was read
+                raise InputError(f"joint {name}: variable {k + 1} cannot be driven", inp.where)
+            out.append(Driver(name, k, sl.start + d[0], d[1], ij.var_kinds[k], inp))
+    return out
+
+
+def validate(spec: RunSpec) -> Prepared:
+    """Build, compile and check one EXECUTE's model (cached on the spec)."""
+    cached = getattr(spec, "_prepared", None)
+    if cached is not None:
+        return cached  # type: ignore[no-any-return]
+    state = spec.state
+    for ex in state.values.values():
+        ex.load_tables()  # a TABLE file that cannot be read is an input error
+    built = build_model(state, spec.where)
+    system = compile_built(built, state, spec.where)
+    items, unsupported = _request_items(state, built)
+    drivers = _drivers(state, built, system) if spec.mode == "kinematic" else []
+    if drivers:
+        cols = np.array([d.column for d in drivers], np.int64)
+        if len(set(cols.tolist())) != len(cols):  # pragma: no cover - one input per joint
+            raise InputError("EXECUTE: a joint variable is driven twice", spec.where)
+        start = make_state(system)
+        start.sgc[cols] = True
+        try:
+            check_drivers(system, start, cols, state.tolerance("SYSTEM")[0], True)
+        except InputError as exc:
+            where = drivers[-1].inp.where
+            raise InputError(f"EXECUTE: {exc} (the input motions are given by DATA POSITION / "
+                             "DATA MOTION statements)", where) from None
+    prep = Prepared(spec, built, system, drivers, items, unsupported)
+    if spec.mode == "kinematic":
+        _check_size(prep)
+    spec._prepared = prep  # type: ignore[attr-defined]
+    return prep
+
+
+def not_produced(spec: RunSpec) -> tuple[str | None, list[str]]:
+    """What one EXECUTE will not produce, found before anything is solved.
+
+    Returns the reason why the whole run produces nothing (an EXECUTE in a mode
+    openimp has not built), or None, and one located message per request that
+    the run cannot answer (FORCE, FREQUENCY, DYNAMICS).  The run reports
+    exactly these (``Run.failure``, ``Run.unsupported``) and ``openimp check``
+    lists them, so the two never disagree.  Raises :class:`InputError` as
+    :func:`validate` does.
+    """
+    state = spec.state
+    if spec.mode != "kinematic":
+        fw = state.find_where
+        what = "static equilibrium" if spec.mode == "static" else "dynamic (time response)"
+        return (f"{spec.where[0]}:{spec.where[1]}: EXECUTE in {spec.mode} mode "
+                f"(FIND {state.find}" + (f" at {fw[0]}:{fw[1]}" if fw else "")
+                + f"): {what} analysis is not built yet in openimp; this run "
+                "produces no results"), []
+    texts = []
+    for req in validate(spec).unsupported:
+        texts.append(f"{req.where[0]}:{req.where[1]}: {req.keyword} is not produced: "
+                     + ("force analysis" if req.quantity == "FORCE" else
+                        "linearized vibration analysis" if req.quantity == "FREQUENCY" else
+                        "transfer-function analysis")
+                     + " is not built yet in openimp (the other requests are)")
+    return None, texts
+
+
+def trailing_requests(deck: Any) -> list[str]:
+    """Requests that no EXECUTE runs: those given after the last EXECUTE (or in a
+    deck without one), one located message each."""
+    final = deck.interp.state.requests
+    specs = deck.specs
+    ran = {id(r.statement) for r in specs[-1].state.requests} if specs else set()
+    out = []
+    for req in final:
+        if id(req.statement) in ran:
+            continue
+        if specs:
+            w = specs[-1].where
+            out.append(f"{req.where[0]}:{req.where[1]}: {req.keyword} comes after the last "
+                       f"EXECUTE ({w[0]}:{w[1]}), so no run produces it; move it before an "
+                       "EXECUTE or add an EXECUTE after it")
+        else:
+            out.append(f"{req.where[0]}:{req.where[1]}: {req.keyword} is not produced: the "
+                       "deck has no EXECUTE statement; add EXECUTE after the requests")
+    return out
+
+
+def _check_size(prep: Prepared) -> None:
+    """Refuse a run whose results would exceed ``MAX_RESULT_BYTES``."""
+    state = prep.spec.state
+    n = len(time_grid(state, 0.0)[0])
+    need = result_bytes(prep, n)
+    if need > MAX_RESULT_BYTES:
+        bodies, points = needs(prep, n)
+        raise InputError(f"EXECUTE: the run would hold {need / 2**20:.0f} MB of results ({n} "
+                         f"steps of {len(bodies)} links and {len(points)} points), more than "
+                         f"{MAX_RESULT_BYTES / 2**20:.0f} MB (limit MAX_RESULT_BYTES); use "
+                         "fewer steps (DATA TIME, DATA POSITION) or request fewer items",
+                         prep.spec.where)
+
+
+def stepped(state: State) -> bool:
+    """True when no DATA TIME gives real times: IMP's assumed time is the step
+    number (counted on after EXECUTE HOLD, back to 0 at RESET), so tables are
+    labelled ``Step``; the rates stay per second."""
+    return state.time is None
+
+
+def plot_driver(prep: Prepared) -> Driver | None:
+    """The input that PLOT draws against in a stepped run: the first DATA
+    POSITION input that moves (None: the step is the abscissa)."""
+    if not stepped(prep.spec.state):
+        return None
+    for d in prep.drivers:
+        if d.inp.kind == "POSITION" and d.inp.increment != 0 and d.inp.nsteps > 0:
+            return d
+    return None
+
+
+def time_grid(state: State, t0: float) -> tuple[np.ndarray, str | None]:
+    """Output times of a run, and IMP's message when DATA TIME is assumed."""
+    if state.time is not None:
+        final, _, pstep = state.time
+        ratio = final / pstep
+        if not ratio <= MAX_STEPS:  # refused at DATA TIME; NaN too
+            raise InputError(f"DATA TIME: {number_text(ratio)} output steps are more than "
+                             f"{MAX_STEPS} (limit MAX_STEPS)", state.time_where)
+        n = math.floor(ratio + 1e-9) + 1
+        return t0 + pstep * np.arange(n), None
+    final = max([i.nsteps for i in state.inputs.values() if i.kind == "POSITION"] or [0])
+    if final > MAX_STEPS:  # refused at DATA POSITION
+        raise InputError(f"DATA POSITION: {final} steps are more than {MAX_STEPS} (limit "
+                         "MAX_STEPS)")
+    msg = f"'DATA TIME = {float(final):.5f}, 0.00000, 1.00000' is assumed."
+    return t0 + np.arange(final + 1, dtype=float), msg
+
+
+#: every point of the model is kept (for VALUEs and graphics) while points x steps stay below
+ALL_POINTS_BUDGET = 2_000_000
+
+
+#: bytes of results per step: q, rates (3 nq), per body T, W, A (48), per point p, v, a (9)
+_FLOATS_PER_BODY, _FLOATS_PER_POINT = 48, 9
+
+
+def needs(prep: Prepared, nsteps: int = 1) -> tuple[list[str], list[str]]:
+    """Bodies and points whose motion the requests, VALUEs and graphics need (every
+    point of the model while points x steps stay within ``ALL_POINTS_BUDGET``)."""
+    st = prep.spec.state
+    model = prep.built.model
+    bodies: set[str] = set()
+    every = len(model.points) <= 200 and len(model.points) * nsteps <= ALL_POINTS_BUDGET
+    points: set[str] = set(model.points) if every else set()
+    for it in prep.items:
+        if it.kind == "link":
+            bodies.add(it.name)
+        elif it.kind == "joint":
+            bodies.add(model.joints[it.name].body1)
+        elif it.kind == "point":
+            points.add(it.name)
+        elif it.kind in ("spring", "damper"):
+            points.update(st.extras[it.kind + "s"][it.name]["points"])
+    g = st.graphics
+    for j in list(g.axes) + (list(model.joints) if g.axes_all else []):
+        if j in model.joints:
+            bodies.add(model.joints[j].body1)
+    for _, pts in st.polylines:
+        points.update(p for p in pts if p in model.points)
+    for ex in st.values.values():  # VALUEs may read the motion of any point
+        for _kind, name in ex.references():
+            if name in model.points:
+                points.add(name)
+    return sorted(bodies), sorted(points)
+
+
+def result_bytes(prep: Prepared, nsteps: int) -> int:
+    """Bytes of results a run of ``nsteps`` output steps holds."""
+    bodies, points = needs(prep, nsteps)
+    per_step = (3 * prep.system.nq + 4 + _FLOATS_PER_BODY * len(bodies)
+                + _FLOATS_PER_POINT * len(points))
+    per_table = sum(8 for _ in prep.items)  # a few columns per request item
+    return 8 * nsteps * (per_step + per_table)

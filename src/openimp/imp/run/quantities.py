@@ -1,0 +1,352 @@
+"""Quantities of a solved run as IMP prints them: joint variables, points, links,
+springs and dampers, VALUEs; the request tables and the PRINT text per step.
+
+Mode-independent: every runner hands its motion over as a
+:class:`~openimp.imp.run.solution.Solution`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from openimp.imp.expr import SimulationStop
+from openimp.imp.jointmap import ImpJoint, imp_variables, to_degrees
+from openimp.imp.listing import tables_from_columns
+from openimp.imp.run.prepare import Item, Prepared, plot_driver, stepped
+from openimp.imp.run.solution import Solution
+from openimp.results import Table
+
+
+def point_motion(sol: Solution, name: str, which: int | None = None) -> Any:
+    """Position, velocity and acceleration of a point (steps x 3 each), or only the
+    one ``which`` (0, 1, 2) asks for."""
+    get = (sol.traj.point, sol.traj.point_velocity, sol.traj.point_acceleration)
+    if which is not None:
+        return get[which](name)
+    return tuple(f(name) for f in get)
+
+
+_NAN = math.nan
+
+
+def _joint_vars(prep: Prepared, sol: Solution, name: str
+                ) -> tuple[ImpJoint, np.ndarray, np.ndarray, np.ndarray]:
+    ij = prep.built.joints[name][0]
+    sl = prep.system.joint_vars(name)
+    p, v, a = imp_variables(ij, sol.q[:, sl], sol.qd[:, sl], sol.qdd[:, sl])
+    assert v is not None and a is not None
+    return ij, p, v, a
+
+
+def _joint_origin(prep: Prepared, sol: Solution, name: str) -> np.ndarray:
+    _, _jd, L1, _ = prep.built.joints[name]
+    T = sol.traj.posture(prep.built.model.joints[name].body1)
+    return np.einsum("sij,j->si", T, L1[:, 3])[:, :3]
+
+
+def _joint_frames(prep: Prepared, sol: Solution, name: str) -> np.ndarray:
+    _, _, L1, _ = prep.built.joints[name]
+    T = sol.traj.posture(prep.built.model.joints[name].body1)
+    return T @ L1
+
+
+def _spring(prep: Prepared, sol: Solution, kind: str, name: str
+            ) -> tuple[np.ndarray, ...]:
+    p1, p2 = prep.spec.state.extras[kind + "s"][name]["points"][:2]
+    r1, v1, a1 = point_motion(sol, p1)
+    r2, v2, a2 = point_motion(sol, p2)
+    d, dd, ddd = r2 - r1, v2 - v1, a2 - a1
+    L = np.linalg.norm(d, axis=1)
+    Ls = np.where(L > 0, L, np.nan)
+    Ld = np.einsum("si,si->s", d, dd) / Ls
+    Ldd = (np.einsum("si,si->s", dd, dd) + np.einsum("si,si->s", d, ddd) - Ld**2) / Ls
+    return L, Ld, Ldd, d, dd, ddd
+
+
+def _axial(M: np.ndarray) -> np.ndarray:
+    return np.stack([M[:, 2, 1], M[:, 0, 2], M[:, 1, 0]], axis=1)
+
+
+_LEN = "length"
+
+
+_ANG_UNITS = {"POSITION": "deg", "VELOCITY": "rad/s", "ACCEL": "rad/s^2"}
+
+
+_LEN_UNITS = {"POSITION": _LEN, "VELOCITY": "length/s", "ACCEL": "length/s^2"}
+
+
+def _resolver(prep: Prepared, sol: Solution, k: int, t: float, motions: Any,
+              step: int, notes: list[str]) -> Callable[[str, str | None, int], float]:
+    """resolve(kind, name, comp) for VALUE expressions at solved step ``k``.
+
+    ``k = -1`` means before the first step: the start posture is not solved
+    yet, so model quantities are undefined there except SGCs of DATA POSITION.
+    """
+    model = prep.built.model
+    st = prep.spec.state
+
+    def resolve(kind: str, name: str | None, comp: int) -> float:
+        if kind == "TIME":
+            return t
+        if kind in ("FORCE", "USER"):
+            label = "FORCE(...)" if kind == "FORCE" else f"USER({name})"
+            note = (f"{label} in a VALUE is undefined: force analysis is not built yet"
+                    if kind == "FORCE" else f"{label} is undefined: no USER function is linked")
+            if note not in notes:
+                notes.append(note)
+            return _NAN
+        assert name is not None
+        which = {"POSITION": 0, "VELOCITY": 1, "ACCEL": 2}[kind]
+        if motions is not None:  # an SGC set before the VALUE is evaluated (no lag)
+            for j, d in enumerate(prep.drivers):
+                if d.joint == name and d.var == comp - 1 and d.inp.kind == "POSITION":
+                    arr = (motions.p, motions.v, motions.a)[which]
+                    return float(arr[step, j] * d.sign)
+        if k < 0 or k >= sol.n:
+            return _NAN
+        if name in model.joints:
+            _, p, v, a = _joint_vars(prep, sol.rows(k), name)
+            arr = (p, v, a)[which]
+            return float(arr[0, comp - 1]) if 1 <= comp <= arr.shape[1] else _NAN
+        if name in model.points and 1 <= comp <= 3:
+            return float(point_motion(sol, name, which)[k, comp - 1])
+        for el in ("springs", "dampers"):
+            if name in st.extras.get(el, {}) and 1 <= comp <= 3:
+                _, _, _, d, dd, ddd = _spring(prep, sol.rows(k), el[:-1], name)
+                return float((d, dd, ddd)[which][0, comp - 1])
+        return _NAN
+
+    return resolve
+
+
+def _value_stop(prep: Prepared, sol: Solution, notes: list[str]) -> Solution:
+    """``sol`` cut before the first step at which a VALUE of the run's requests
+    evaluates RETURN or END: IMP stops the simulation there (reference §5)."""
+    st = prep.spec.state
+    first: tuple[int, str, SimulationStop] | None = None
+    for it in prep.items:
+        if it.kind != "value":
+            continue
+        ex = st.values[it.name]
+        for k in range(sol.n if first is None else first[0]):
+            try:
+                ex.derivatives(st.values, _resolver(prep, sol, k, sol.times[k], None, k, []))
+            except SimulationStop as stop:
+                first = (k, it.name, stop)
+                break
+    if first is None:
+        return sol
+    k, name, stop = first
+    cut = sol.rows(0, k)
+    listed = f"the {k} position(s) before it are listed" if k else "no position is listed"
+    text = (f"{stop.where[0]}:{stop.where[1]}: VALUE {name} evaluated {stop.kind} at time "
+            f"{sol.times[k]:.6f}: the run stops there ")
+    if stop.kind == "END":
+        cut.stop = text + f"and no further EXECUTE runs (END in a VALUE leaves IMP); {listed}"
+        cut.end = True
+    else:
+        cut.stop = text + f"(RETURN in a VALUE); {listed}"
+    return cut
+
+
+def _values(prep: Prepared, sol: Solution, name: str, notes: list[str]) -> np.ndarray:
+    st = prep.spec.state
+    ex = st.values[name]
+    out = np.full((sol.n, 3), _NAN)
+    for k in range(sol.n):
+        vnotes: list[str] = []
+        try:
+            out[k] = ex.derivatives(st.values, _resolver(prep, sol, k, sol.times[k], None, k,
+                                                         notes), notes=vnotes)
+        except SimulationStop as stop:
+            notes.append(f"{stop.where[0]}:{stop.where[1]}: VALUE {name} evaluated {stop.kind} "
+                         f"at time {sol.times[k]:.6f}; IMP would stop the run there (the "
+                         "values after it are left undefined)")
+            break
+        for v in vnotes:
+            if v not in notes:
+                notes.append(v)
+    return out
+
+
+def make_table(prep: Prepared, sol: Solution, it: Item, notes: list[str]) -> Table:
+    """The table of one request item."""
+    req = it.request
+    fam, q = req.family, req.quantity
+    t = sol.times
+    request = req.keyword
+    cols: list[str] = ["Time"]
+    units: list[str] = ["s"]
+    data: list[np.ndarray] = [t]
+    if stepped(prep.spec.state):  # IMP's assumed time: the step number (goes on after HOLD)
+        cols, units = ["Step"], [""]
+        d = plot_driver(prep) if fam == "PLOT" else None
+        if d is not None:  # the abscissa of the plot: the input's value
+            pos = _joint_vars(prep, sol, d.joint)[1][:, d.var]
+            cols.append(f"{d.joint} {d.var + 1}")
+            units.append(_ANG_UNITS["POSITION"] if d.kind == "angle" else _LEN)
+            data.append(np.degrees(pos) if d.kind == "angle" else pos)
+    if it.kind == "heading":
+        cols += ["DOF", "Quality index", "Iterations"]
+        units += ["", "", ""]
+        data += [sol.mobility.astype(float), sol.quality, sol.iterations.astype(float)]
+        for d in prep.drivers:
+            ij, p, v, a = _joint_vars(prep, sol, d.joint)
+            pos = p[:, d.var]
+            pos = np.degrees(pos) if d.kind == "angle" else pos
+            u = _ANG_UNITS if d.kind == "angle" else _LEN_UNITS
+            for lab, arr, key in (("", pos, "POSITION"), (" vel", v[:, d.var], "VELOCITY"),
+                                  (" acc", a[:, d.var], "ACCEL")):
+                cols.append(f"{d.joint} {d.var + 1}{lab}")
+                units.append(u[key])
+                data.append(arr)
+        return tables_from_columns(request, "generalized coordinates", cols, units, data)
+    if it.kind == "value":
+        vals = _values(prep, sol, it.name, notes)
+        cols += ["Value", "d/dt", "d2/dt2"]
+        units += ["", "1/s", "1/s^2"]
+        data += [vals[:, 0], vals[:, 1], vals[:, 2]]
+        return tables_from_columns(request, f"value {it.name}", cols, units, data)
+    which = {"POSITION": 0, "VELOCITY": 1, "ACCEL": 2}[q]
+    if it.kind == "joint":
+        ij, p, v, a = _joint_vars(prep, sol, it.name)
+        arr = (p, v, a)[which]
+        if which == 0:
+            arr = to_degrees(ij, arr)
+        for k, kind in enumerate(ij.var_kinds):
+            cols.append(f"JVar {k + 1}")
+            units.append((_ANG_UNITS if kind == "angle" else _LEN_UNITS)[q])
+            data.append(arr[:, k])
+        if fam == "PRINT" and which == 0:
+            o = _joint_origin(prep, sol, it.name)
+            cols += ["X", "Y", "Z"]
+            units += [_LEN] * 3
+            data += [o[:, 0], o[:, 1], o[:, 2]]
+        return tables_from_columns(request, f"joint {it.name}", cols, units, data)
+    if it.kind == "point":
+        arr = point_motion(sol, it.name, which)
+        if fam == "PRINT":
+            cols.append("Magnitude")
+            units.append(_LEN_UNITS[q])
+            data.append(np.linalg.norm(arr, axis=1))
+        cols += ["X", "Y", "Z"]
+        units += [_LEN_UNITS[q]] * 3
+        data += [arr[:, 0], arr[:, 1], arr[:, 2]]
+        return tables_from_columns(request, f"point {it.name}", cols, units, data)
+    if it.kind == "link":
+        if which == 0:
+            T = sol.traj.posture(it.name)
+            for i in range(3):
+                for j in range(4):
+                    cols.append(f"T{i + 1}{j + 1}")
+                    units.append(_LEN if j == 3 else "")
+                    data.append(T[:, i, j])
+        else:
+            M = (sol.traj.velocity_operator(it.name) if which == 1 else
+                 sol.traj.acceleration_operator(it.name))
+            ang = _axial(M)
+            lab = ("Omega", "V") if which == 1 else ("Alpha", "A")
+            au = "rad/s" if which == 1 else "rad/s^2"
+            for c in range(3):
+                cols.append(f"{lab[0]}{'XYZ'[c]}")
+                units.append(au)
+                data.append(ang[:, c])
+            for c in range(3):
+                cols.append(f"{lab[1]}{'XYZ'[c]}")
+                units.append(_LEN_UNITS[q])
+                data.append(M[:, c, 3])
+        return tables_from_columns(request, f"link {it.name}", cols, units, data)
+    # spring / damper
+    L, Ld, Ldd, d, dd, ddd = _spring(prep, sol, it.kind, it.name)
+    scalar = (L, Ld, Ldd)[which]
+    vec = (d, dd, ddd)[which]
+    if fam != "STORE":
+        cols.append({"POSITION": "Length", "VELOCITY": "Length rate",
+                     "ACCEL": "Length acceleration"}[q])
+        units.append(_LEN_UNITS[q])
+        data.append(scalar)
+    if fam in ("PRINT", "STORE"):
+        cols += ["DX", "DY", "DZ"]
+        units += [_LEN_UNITS[q]] * 3
+        data += [vec[:, 0], vec[:, 1], vec[:, 2]]
+    return tables_from_columns(request, f"{it.kind} {it.name}", cols, units, data)
+
+
+def _f4(x: float) -> str:
+    return "????" if not math.isfinite(x) else f"{x:.4f}"
+
+
+def _f3(x: float) -> str:
+    return "????" if not math.isfinite(x) else f"{x:.3f}"
+
+
+def print_step(prep: Prepared, sol: Solution, k: int, tables: dict[tuple[str, str, str], Any],
+               items: list[Item]) -> list[str]:
+    """The PRINT lines of step ``k``."""
+    out: list[str] = []
+    heading = [it for it in items if it.kind == "heading"]
+    if heading:
+        out.append("The Generalized Coordinates are:")
+        out.append("Joint Set by Position Velocity Acceleration")
+        for d in prep.drivers:
+            _ij, p, v, a = _joint_vars(prep, sol.rows(k), d.joint)
+            pos = p[0, d.var]
+            pos = math.degrees(pos) if d.kind == "angle" else pos
+            out.append(f"{d.joint} {d.var + 1} user {_f4(pos)} {_f3(v[0, d.var])} "
+                       f"{_f3(a[0, d.var])}")
+        for vn in sol.fgc[k]:
+            joint, var = vn.split(".", 1)
+            c = prep.system.var_index((joint, var))
+            kind = prep.system.var_kinds[c]
+            pos = sol.q[k, c]
+            idx = prep.system.var_names[prep.system.joint_vars(joint)].index(vn) + 1
+            out.append(f"{joint} {idx} imp {_f4(math.degrees(pos) if kind == 'angle' else pos)}"
+                       f" {_f3(sol.qd[k, c])} {_f3(sol.qdd[k, c])}")
+        out.append(f"Degree of freedom = {int(sol.mobility[k])}. Quality index = "
+                   f"{sol.quality[k]:.2e} with {int(sol.iterations[k])} iterations.")
+    for q, title in (("POSITION", "Position Results:"), ("VELOCITY", "Velocity Results:"),
+                     ("ACCEL", "Acceleration Results:")):
+        its = [it for it in items if it.request.quantity == q and it.kind != "heading"]
+        if not its:
+            continue
+        out.append(title)
+        out.append("Item Name Magnitude X Y Z")
+        for it in its:
+            t = tables[("PRINT", q, f"{it.kind} {it.name}")]
+            row = t.rows[k]
+            if it.kind == "joint":
+                nv = sum(1 for c in t.columns if c.startswith("JVar"))
+                vals = [_f4(x) for x in row[1:1 + nv]]
+                first = vals[0] if vals else ""
+                extra = " " + " ".join(_f4(x) for x in row[1 + nv:]) if q == "POSITION" else ""
+                out.append(f"Joint {it.name} {first}{extra}".rstrip())
+                out.extend(vals[1:])
+            elif it.kind == "point":
+                out.append(f"Point {it.name} " + " ".join(_f4(x) for x in row[1:]))
+            elif it.kind == "link":
+                vals = row[1:]
+                if q == "POSITION":
+                    out.append(f"Link {it.name}")
+                    for i in range(3):
+                        out.append(" ".join(_f4(x) for x in vals[4 * i:4 * i + 4]))
+                else:
+                    w, vv = vals[:3], vals[3:]
+                    out.append(f"Link {it.name} {_f4(float(np.linalg.norm(w)))} "
+                               + " ".join(_f4(x) for x in w))
+                    out.append(f"{_f4(float(np.linalg.norm(vv)))} " + " ".join(_f4(x) for x in vv))
+            else:
+                lab = "Spg." if it.kind == "spring" else "Dmp."
+                out.append(f"{lab} {it.name} " + " ".join(_f4(x) for x in row[1:]))
+    vals = [it for it in items if it.kind == "value"]
+    if vals:
+        out.append("Value Results:")
+        out.append("Name Value Velocity Acceleration")
+        for it in vals:
+            row = tables[("PRINT", "VALUE", f"value {it.name}")].rows[k]
+            out.append(f"{it.name} " + " ".join(_f4(x) for x in row[1:]))
+    return out

@@ -1,0 +1,83 @@
+"""What one run solved: a :class:`~openimp.results.Trajectory` and how the run ended.
+
+The runner of any mode hands its motion to the tables, listings and pictures
+as a :class:`Solution`: the trajectory of the solved steps (joint variables,
+rates, quality index, free coordinates; body postures and point motions on
+demand), the output times of those steps, and the run's ending (a failure
+message, Ctrl-C, RETURN or END in a VALUE).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from openimp.results import Trajectory
+
+
+@dataclass
+class Solution:
+    """The solved steps of a run (model units) and how the run ended.
+
+    ``traj``: the trajectory; ``times``: the output time (or step number) of
+    every solved step; ``message``: why the run stopped early ("" when it did
+    not); ``interrupted``: the user pressed Ctrl-C; ``stop``: what IMP says
+    when a VALUE evaluated RETURN or END; ``end``: END was evaluated, no
+    further EXECUTE runs.
+    """
+
+    traj: Trajectory
+    times: np.ndarray
+    message: str = ""
+    interrupted: bool = False
+    stop: str = ""
+    end: bool = False
+
+    @classmethod
+    def of(cls, parts: Sequence[Trajectory], empty: Trajectory, times: np.ndarray,
+           message: str = "") -> Solution:
+        """The solution of the trajectories ``parts`` in order (``empty`` when none)."""
+        parts = [p for p in parts if p.nsteps]
+        traj = Trajectory.concatenate(parts) if parts else empty
+        return cls(traj, np.asarray(times[:traj.nsteps], dtype=float), message)
+
+    @property
+    def n(self) -> int:
+        """Number of solved steps."""
+        return self.traj.nsteps
+
+    # joint variables and the run's indicators (steps x nq, model units)
+    @property
+    def q(self) -> np.ndarray:
+        return self.traj.q
+
+    @property
+    def qd(self) -> np.ndarray:
+        return self.traj.qd
+
+    @property
+    def qdd(self) -> np.ndarray:
+        return self.traj.qdd
+
+    @property
+    def quality(self) -> np.ndarray:
+        return self.traj.quality
+
+    @property
+    def iterations(self) -> np.ndarray:
+        return self.traj.iterations
+
+    @property
+    def mobility(self) -> np.ndarray:
+        return self.traj.mobility
+
+    @property
+    def fgc(self) -> list[list[str]]:
+        return self.traj.fgc
+
+    def rows(self, k: int, stop: int | None = None) -> Solution:
+        """The steps ``k`` to ``stop`` (default: step ``k`` alone), same ending."""
+        stop = k + 1 if stop is None else stop
+        return Solution(self.traj.steps(k, stop), self.times[k:stop])
