@@ -1014,3 +1014,19 @@ def test_simplified_newton_steps_keep_the_accuracy_of_full_steps():
     phi, _, _ = rssr_output(g, th0 + q, +1)
     assert np.max(np.abs(wrap(fast.variable("D") - phi))) < 1e-10
     assert_loops_close(rig, fast)
+
+
+def test_sweep_refuses_solver_options_that_cannot_work():
+    """tol <= 0, NaN, maxit <= 0 and the like are input errors naming the option, from
+    sweep and sweep_batch, before anything is solved (not blamed on the mechanism)."""
+    from openimp.kinematics import sweep_batch
+
+    s = openimp.compile(_batch_fourbar(3.0, 2.5))
+    drv = {"A": np.radians(np.arange(1.0, 5.0))}
+    for kw, word in (({"tol": 0.0}, "tol"), ({"tol": float("nan")}, "tol"),
+                     ({"pivot_tol": -1.0}, "pivot_tol"), ({"maxit": 0}, "maxit"),
+                     ({"maxhalve": 1000}, "maxhalve")):
+        with pytest.raises(InputError, match=word):
+            openimp.sweep(s, drv, **kw)
+        with pytest.raises(InputError, match=word):
+            sweep_batch([s], drv, **kw)

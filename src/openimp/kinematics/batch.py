@@ -16,7 +16,7 @@ import numpy as np
 
 from openimp._jit import njit, prange
 from openimp.errors import InputError
-from openimp.kinematics.posture import check_drivers, check_options
+from openimp.kinematics.posture import check_drivers
 from openimp.kinematics.sweep import (
     Drive,
     Solver,
@@ -26,6 +26,7 @@ from openimp.kinematics.sweep import (
     sweep_steps,
 )
 from openimp.kinematics.track import tracker
+from openimp.limits import check_solver_options
 from openimp.results import Trajectory
 from openimp.system import State, System, make_data, make_state, read_only
 
@@ -127,7 +128,7 @@ def sweep_batch(
     """
     if not systems:
         raise InputError("sweep_batch needs at least one compiled system")
-    check_options(tol, pivot_tol, maxit, maxhalve)
+    check_solver_options(tol, pivot_tol, maxit, maxhalve)
     s0 = systems[0]
     KI, KB = s0.KP[0], s0.KP[2]
     for i, s in enumerate(systems[1:], start=1):

@@ -5,7 +5,6 @@ checks of the drivers of a motion (mobility, over-specification, passive freedom
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import numpy as np
 
@@ -121,21 +120,6 @@ def newton(
 # =============================================================================
 # Python side: eliminations at one posture, driver checks
 # =============================================================================
-def check_options(tol: Any, pivot_tol: Any, maxit: Any, maxhalve: Any) -> None:
-    """Refuse solver options that cannot work (InputError naming the option)."""
-    for name, v in (("tol", tol), ("pivot_tol", pivot_tol)):
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) \
-                or not 0.0 < v < 1.0:
-            raise InputError(f"{name} must be a number between 0 and 1 (exclusive), "
-                             f"got {v!r}")
-        if v < 1e-15:
-            raise InputError(f"{name} = {v:g} is below what double precision resolves "
-                             "(about 1e-15 of the model size); give 1e-15 or more")
-    for name, v, hi in (("maxit", maxit, 10_000), ("maxhalve", maxhalve, 60)):
-        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not 1 <= v <= hi:
-            raise InputError(f"{name} must be a whole number from 1 to {hi}, got {v!r}")
-
-
 def eliminate_at(system: System, data: Data, state: State, ptol: float) -> tuple[int, float, float]:
     """Evaluate and eliminate the loop equations at ``state.q`` (state unchanged).
 

@@ -23,12 +23,12 @@ from openimp.kinematics.posture import (
     MAXITER,
     OK,
     check_drivers,
-    check_options,
     newton,
     normalise_er,
 )
 from openimp.kinematics.rates import velocity, velocity_product
 from openimp.kinematics.track import tracker
+from openimp.limits import check_solver_options
 from openimp.results import Trajectory
 from openimp.system import System, data_views, make_data, make_state
 
@@ -383,7 +383,7 @@ def sweep(
     """
     from openimp.motion import as_motion
 
-    check_options(tol, pivot_tol, maxit, maxhalve)
+    check_solver_options(tol, pivot_tol, maxit, maxhalve)
     tarr = None
     if motion is not None:
         if drivers is not None or rates is not None or accels is not None:
