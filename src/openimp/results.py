@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -33,6 +33,72 @@ def screw_to_operator(s: np.ndarray) -> np.ndarray:
     out[..., 1, 0], out[..., 2, 0], out[..., 2, 1] = w[..., 2], -w[..., 1], w[..., 0]
     out[..., :3, 3] = v
     return out
+
+
+@dataclass
+class Singularity:
+    """A singular posture met along a motion (book 6.9), where the rank of the loop
+    Jacobian drops.
+
+    ``kind``: ``"change point"`` (the whole Jacobian loses rank: the mechanism
+    gains freedoms there and branches of motion meet: change points,
+    bifurcations) or ``"dead point"`` (only the drivers lose control: a limit of
+    travel or toggle of a driver).  ``step``: the output step at the singular
+    posture (``landed``) or the first step after it; ``position``: where it
+    lies along the steps (``step - 1 < position <= step``); ``drivers``: the
+    driver values there (model units); ``mobility``: the mobility there, against
+    ``regular`` elsewhere; ``gained``: the coordinates that are free there beyond
+    the specified ones; ``branch``: at a change point, ``"smooth"`` (the branch
+    whose tangent continues the incoming motion) or ``"other"`` (the user's
+    choice), at a dead point what the sweep did; ``quality``: the quality index
+    there.
+    """
+
+    step: int
+    landed: bool
+    position: float
+    drivers: dict[str, float]
+    kind: str
+    mobility: int
+    regular: int
+    gained: list[str]
+    branch: str
+    quality: float
+
+    def __str__(self) -> str:
+        where = (f"step {self.step}" if self.landed else
+                 f"between steps {self.step - 1} and {self.step}")
+        at = ", ".join(f"{k} = {v:.8g}" for k, v in self.drivers.items())
+        free = ", ".join(self.gained[:6]) + (f" and {len(self.gained) - 6} more"
+                                             if len(self.gained) > 6 else "")
+        text = f"{where} ({at}): {self.kind}, mobility {self.regular} -> {self.mobility}"
+        if free:
+            text += f" (free there: {free})"
+        if self.branch:
+            text += f"; {self.branch}"
+        return text
+
+
+@dataclass
+class DriverSwitch:
+    """The input moved to another joint variable at a dead point of the old one (IMP's
+    automatic driver switching): from ``step`` on, ``new`` is driven, starting at
+    ``value`` (model units), and ``old`` follows the mechanism."""
+
+    step: int
+    old: str
+    new: str
+    value: float
+
+    def __str__(self) -> str:
+        return (f"step {self.step}: the input switched from {self.old} (at its limit of "
+                f"travel) to {self.new}, from {self.value:.8g} on")
+
+
+def _frozen(a: np.ndarray) -> np.ndarray:
+    """``a`` flagged read-only (a cached result handed out many times)."""
+    a.setflags(write=False)
+    return a
 
 
 class Trajectory:
@@ -69,7 +135,15 @@ class Trajectory:
         self._qd: np.ndarray | None = None
         self._qdd: np.ndarray | None = None
         self.consistency: np.ndarray | None = None
+        #: the user interrupted the analysis (Ctrl-C); ``message`` says where
+        self.interrupted = False
+        #: singular postures met along the motion (:class:`Singularity`), in order
+        self.singularities: list[Singularity] = []
+        #: driver switches at dead points (:class:`DriverSwitch`), in order
+        self.switches: list[DriverSwitch] = []
         self._tracker = tracker
+        #: model-unit arrays computed once (a listing reads them step by step)
+        self._cache: dict[str, Any] = {}
         self._bodies: dict[int, tuple[np.ndarray, np.ndarray | None, np.ndarray | None]] = {}
         self._points: dict[int, np.ndarray] = {}
 
@@ -81,6 +155,8 @@ class Trajectory:
         self._qdd = qdd
         self.consistency = cons
         self._bodies.clear()
+        self._cache.pop("qd", None)
+        self._cache.pop("qdd", None)
 
     @classmethod
     def empty(cls, system: Any, tracker: Tracker) -> Trajectory:
@@ -110,6 +186,13 @@ class Trajectory:
                           cat(lambda p: p.consistency))
         if all(p.time is not None for p in parts):
             out.time = cat(lambda p: p.time)
+        offset = 0
+        for p in parts:  # the singular postures and switches, renumbered
+            out.singularities += [replace(r, step=r.step + offset, position=r.position + offset)
+                                  for r in p.singularities]
+            out.switches += [replace(w, step=w.step + offset) for w in p.switches]
+            offset += p.nsteps
+        out.interrupted = any(p.interrupted for p in parts)
         return out
 
     def steps(self, k0: int, k1: int) -> Trajectory:
@@ -127,6 +210,9 @@ class Trajectory:
             out._bodies[b] = (T[sl], None if V is None else V[sl], None if A is None else A[sl])
         for p, x in self._points.items():
             out._points[p] = x[sl]
+        out.singularities = [replace(r, step=r.step - k0, position=r.position - k0)
+                             for r in self.singularities if k0 <= r.step < k1]
+        out.switches = [replace(w, step=w.step - k0) for w in self.switches if k0 <= w.step < k1]
         return out
 
     # ----------------------------------------------------------------- sizes
@@ -144,10 +230,15 @@ class Trajectory:
         return not self.message
 
     # ------------------------------------------------------- joint variables
+    def _cached(self, key: str, make: Callable[[], Any]) -> Any:
+        if key not in self._cache:
+            self._cache[key] = make()
+        return self._cache[key]
+
     @property
     def q(self) -> np.ndarray:
-        """All joint variables (steps x nq), model units."""
-        return self._q * self.system.var_scale
+        """All joint variables (steps x nq), model units (read-only)."""
+        return self._cached("q", lambda: _frozen(self._q * self.system.var_scale))
 
     @property
     def mobility(self) -> np.ndarray:
@@ -164,7 +255,8 @@ class Trajectory:
         coordinates are then the drivers (:attr:`sgc`).
         """
         names = self.system.var_names
-        return [[names[c] for c in np.flatnonzero(row)] for row in self._fgc]
+        return self._cached("fgc", lambda: [[names[c] for c in np.flatnonzero(row)]
+                                            for row in self._fgc])
 
     @property
     def sgc(self) -> list[str]:
@@ -205,13 +297,16 @@ class Trajectory:
 
     @property
     def qd(self) -> np.ndarray:
-        """All joint velocities (steps x nq), model units per second."""
-        return self._need_rates()[0] * self.system.var_scale
+        """All joint velocities (steps x nq), model units per second (read-only)."""
+        qd = self._need_rates()[0]
+        return self._cached("qd", lambda: _frozen(qd * self.system.var_scale))
 
     @property
     def qdd(self) -> np.ndarray:
-        """All joint accelerations (steps x nq), model units per second squared."""
-        return self._need_rates()[1] * self.system.var_scale
+        """All joint accelerations (steps x nq), model units per second squared
+        (read-only)."""
+        qdd = self._need_rates()[1]
+        return self._cached("qdd", lambda: _frozen(qdd * self.system.var_scale))
 
     def joint_velocity(self, name: str) -> np.ndarray:
         """Velocities of one joint's variables (steps x nvar)."""
@@ -336,6 +431,23 @@ class Trajectory:
         """Acceleration of a point (steps x 3), global (8.56)."""
         return self._point_rates(self.point(name), self._point_body(name))[1]
 
+    def singularity_table(self) -> dict[str, Any]:
+        """Columns of :attr:`singularities`: step, position, kind, mobility, free there,
+        branch, quality, then one column per driver value."""
+        rows = self.singularities
+        cols: dict[str, Any] = {
+            "step": np.array([r.step for r in rows], np.int64),
+            "position": np.array([r.position for r in rows]),
+            "kind": [r.kind for r in rows],
+            "mobility": np.array([r.mobility for r in rows], np.int64),
+            "free": [", ".join(r.gained) for r in rows],
+            "branch": [r.branch for r in rows],
+            "quality": np.array([r.quality for r in rows]),
+        }
+        for name in self.drivers:
+            cols[name] = np.array([r.drivers.get(name, math.nan) for r in rows])
+        return cols
+
     # ----------------------------------------------------------------- table
     def to_table(self) -> dict[str, Any]:
         """Columns: step (and time), joint variables (and their rates), quality, mobility."""
@@ -358,7 +470,8 @@ class Trajectory:
         state = "complete" if self.complete else f"stopped: {self.message}"
         rates = ", with rates" if self.has_rates else ""
         gc = ", ".join(self.sgc) or "none"
-        return f"Trajectory({self.nsteps} steps{rates}, {state}; specified: {gc})"
+        sing = f", {len(self.singularities)} singular postures" if self.singularities else ""
+        return f"Trajectory({self.nsteps} steps{rates}{sing}, {state}; specified: {gc})"
 
 
 # =============================================================================

@@ -118,7 +118,9 @@ DATA_FIELDS: tuple[Field, ...] = (
     Field("Ab", "f", ("nb", 6), "screw of the acceleration operator alpha_b (8.52)"),
     Field("Kh", "f", ("nj", 6), "drift screw of every joint (8.26, 8.39)"),
     Field("qlast", "f", ("nq",), "last solved posture of a sweep"),
+    Field("qpred", "f", ("nq",), "predicted posture of the step being solved"),
     Field("isdriver", "b", ("nq",), "variables driven in a sweep"),
+    Field("loop", "i", (2,), "step loop carried between calls: regular rank, history flag"),
     Field("G", "f", ("nq", "nd"), "first geometric derivatives dq/dpsi of the drivers (7.14)"),
     Field("Gp", "f", ("nq", "nd"), "G one step back (second-order predictor)"),
     Field("dprev", "f", ("nd",), "driver move of the last step"),
@@ -287,11 +289,13 @@ def data_views(DP: tuple) -> Any:
         field2(F, I, 19),  # Ab
         field2(F, I, 20),  # Kh
         field1(F, I, 21),  # qlast
-        field1(B, I, 22),  # isdriver
-        field2(F, I, 23),  # G
-        field2(F, I, 24),  # Gp
-        field1(F, I, 25),  # dprev
-        field1(F, I, 26),  # dnew
+        field1(F, I, 22),  # qpred
+        field1(B, I, 23),  # isdriver
+        field1(I, I, 24),  # loop
+        field2(F, I, 25),  # G
+        field2(F, I, 26),  # Gp
+        field1(F, I, 27),  # dprev
+        field1(F, I, 28),  # dnew
     )
 
 

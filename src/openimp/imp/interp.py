@@ -211,6 +211,10 @@ class State:
     graphics: Graphics = field(default_factory=Graphics)
     extras: dict[str, Any] = field(default_factory=dict)
     unit_mass: float = 0.0025901
+    #: at a change point: the smooth branch or the other (REMARK OPENIMP BRANCH = ...)
+    branch: str = "smooth"
+    #: at a dead point of an input: stop or switch (REMARK OPENIMP DEAD POINT = ...)
+    at_limit: str = "stop"
     #: (category, significant name) -> (the name as first written, where)
     spelled: dict[tuple[str, str], tuple[str, Where]] = field(default_factory=dict)
 
@@ -944,13 +948,38 @@ class Interpreter:
             self.state.graphics.used = True
 
     # ------------------------------------------------------------------ control
+    def _directive(self, text: str) -> None:
+        """``REMARK OPENIMP ...``: an openimp choice IMP itself reads as a remark.
+
+        ``REMARK OPENIMP BRANCH = SMOOTH | OTHER`` (at a change point: the branch
+        whose tangent continues the motion, or the other one) and ``REMARK OPENIMP
+        DEAD POINT = STOP | SWITCH`` (at a limit of travel of an input: stop, or
+        drive the joint variable that moves most from there on).  They hold for
+        the EXECUTEs that follow.
+        """
+        words = text.upper().replace("=", " = ").split()
+        if not words or words[0].rstrip(":") != "OPENIMP":
+            return
+        rest = " ".join(w for w in words[1:] if w != "=")
+        known = {"BRANCH SMOOTH": ("branch", "smooth"), "BRANCH OTHER": ("branch", "other"),
+                 "DEAD POINT STOP": ("at_limit", "stop"),
+                 "DEAD POINT SWITCH": ("at_limit", "switch")}
+        if rest not in known:
+            raise self.error("unknown openimp directive in a REMARK: give REMARK OPENIMP "
+                             "BRANCH = SMOOTH or OTHER, or REMARK OPENIMP DEAD POINT = STOP or "
+                             f"SWITCH (got '{' '.join(words[1:])[:40]}')")
+        name, value = known[rest]
+        setattr(self.state, name, value)
+
     def _control(self, stmt: Statement) -> None:
         kw = stmt.keyword
         st = self.state
         f = stmt.fields
         if kw == "TITLE":
             st.title = f["title"]
-        elif kw in ("REMARK", "RETURN", "RECALL INPUT", "PAUSE ON", "PAUSE OFF", "ERASE ON",
+        elif kw == "REMARK":
+            self._directive(f.get("text", ""))
+        elif kw in ("RETURN", "RECALL INPUT", "PAUSE ON", "PAUSE OFF", "ERASE ON",
                     "ERASE OFF"):
             pass  # no effect in a batch run (RECALL INPUT is expanded by the parser)
         elif kw in ("EXECUTE", "EXECUTE HOLD"):

@@ -35,13 +35,13 @@ from openimp.system import State, System, make_data, make_state, read_only
 def _variant(KI: np.ndarray, KFs: np.ndarray, KB: np.ndarray, DP0: tuple, S0: tuple,
              gen: np.ndarray | None, drive: tuple, opt: tuple, out: tuple, v: int) -> None:
     """The sweep of variant v of :func:`batch_kernel`, on data and a state of its own."""
-    Qs, quality, rank, fgc, iters, done, status = out
+    Qs, quality, rank, fgc, iters, jump, done, status = out
     DP = (DP0[0].copy(), np.zeros_like(DP0[1]), np.zeros_like(DP0[2]))
     S = State(S0.t.copy(), S0.q[v].copy(), S0.qd.copy(), S0.qdd.copy(), S0.sgc.copy(),
               S0.fgc.copy(), S0.load_sign.copy())
     dv = Drive(drive.cols, drive.values[v], drive.rates, drive.accels)
     o = SweepOut(Qs[v], Qs[v, :0], Qs[v, :0], quality[v], rank[v], fgc[v], iters[v],
-                 quality[v, :0])
+                 quality[v, :0], jump[v])
     n, st = sweep_steps((KI, KFs[v], KB), DP, S, gen, dv, opt, o)
     done[v] = n
     status[v] = st
@@ -57,7 +57,7 @@ def batch_kernel(KI: np.ndarray, KFs: np.ndarray, KB: np.ndarray, DP0: tuple, S0
     (its header is copied, its arrays allocated per variant); S0: the state
     template, whose ``q`` is (variants x nq) start postures.  drive: the
     driver columns, values (variants x steps x nd) and two unused rate arrays;
-    out: (Q, quality, rank, fgc, iterations) with a leading variant axis, then
+    out: (Q, quality, rank, fgc, iterations, jump) with a leading variant axis, then
     ``done`` and ``status`` per variant.  The loop body is a function of its
     own: numba 0.68 loses writes made in a parallel loop through the arrays
     of a tuple argument.
@@ -166,14 +166,14 @@ def sweep_batch(
     nsteps = dvals.shape[1]
     out = (np.zeros((nv, nsteps, nq)), np.zeros((nv, nsteps)), np.zeros((nv, nsteps), np.int64),
            np.zeros((nv, nsteps, nq), np.bool_), np.zeros((nv, nsteps), np.int64),
-           np.zeros(nv, np.int64), np.zeros(nv, np.int64))
+           np.zeros((nv, nsteps)), np.zeros(nv, np.int64), np.zeros(nv, np.int64))
     S0 = S0._replace(q=np.stack([s.q0 for s in systems]))
     KFs = read_only((np.stack([s.KP[1] for s in systems]),))[0]
     none = np.zeros((nsteps, len(cols)))
     batch_kernel(KI, KFs, KB, make_data(s0, len(cols)).DP, S0, s0.gen,
                  Drive(cols, dvals, none, none),
                  Solver(float(tol), float(pivot_tol), int(maxit), int(maxhalve), False), out)
-    Q, quality, rank, fgc, iters, done, status = out
+    Q, quality, rank, fgc, iters, _, done, status = out
     names = [s0.var_names[c] for c in cols]
     msgs = ["" if done[v] == nsteps else
             failure_message(systems[v], names, dvals[v], int(done[v]), int(status[v]))

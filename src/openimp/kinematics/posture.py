@@ -21,6 +21,10 @@ from openimp.system import Data, State, System, data_views, make_data, make_stat
 OK = 0
 MAXITER = 1
 DIVERGED = 2
+#: a step converged on another branch than the one the motion came along
+BRANCH = 3
+#: the user pressed Ctrl-C (between chunks of a sweep)
+INTERRUPTED = 4
 
 
 @njit(nrt=False, inline="always")

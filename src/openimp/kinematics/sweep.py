@@ -10,16 +10,20 @@ elimination.  :func:`sweep` is the Python entry point; it returns a
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+import math
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any, NamedTuple
 
 import numpy as np
 
 from openimp._jit import njit
 from openimp.errors import InputError
+from openimp.kinematics import singular as sing
 from openimp.kinematics.elimination import derivatives
 from openimp.kinematics.posture import (
+    BRANCH,
     DIVERGED,
+    INTERRUPTED,
     MAXITER,
     OK,
     check_drivers,
@@ -29,7 +33,7 @@ from openimp.kinematics.posture import (
 from openimp.kinematics.rates import velocity, velocity_product
 from openimp.kinematics.track import tracker
 from openimp.limits import check_solver_options
-from openimp.results import Trajectory
+from openimp.results import DriverSwitch, Singularity, Trajectory
 from openimp.system import System, data_views, make_data, make_state
 
 #: the former name of the trajectory of a sweep
@@ -49,19 +53,25 @@ class Drive(NamedTuple):
 
 class Solver(NamedTuple):
     """Options of a sweep: Newton tolerance and pivot tolerance (internal units), the
-    iteration cap, the number of step halvings allowed, and whether rates are wanted."""
+    iteration cap, the number of step halvings allowed, whether rates are wanted, and
+    whether the step loop resumes where its last call stopped (the data keeps the
+    last posture and the tangents: a long sweep is solved in chunks, between which
+    progress is told and Ctrl-C heard, exactly as in one call)."""
 
     tol: float
     ptol: float
     maxit: int
     maxhalve: int
     rates: bool
+    resume: bool = False
 
 
 class SweepOut(NamedTuple):
     """Per-step outputs of :func:`sweep_steps` (steps rows each): Q, QD, QDD (x nq;
     QD and QDD 0 rows without rates), quality, rank, fgc (x nq bool), iterations,
-    consistency residual (0 rows without rates)."""
+    consistency residual (0 rows without rates), and ``jump``: how far the step moved
+    across the tangent-continuous prediction, relative to the predicted step (about 0
+    on a smooth branch; see :data:`JUMP`)."""
 
     Q: np.ndarray
     QD: np.ndarray
@@ -71,6 +81,7 @@ class SweepOut(NamedTuple):
     fgc: np.ndarray
     iters: np.ndarray
     cons: np.ndarray
+    jump: np.ndarray
 
 
 @njit(nrt=False, inline="always")
@@ -140,6 +151,22 @@ def _predict(DP: tuple, S: tuple, drive: tuple, k: int, frac: float, has_prev: b
                 S.q[r] += f * (d.G[r, j] - d.Gp[r, j])
 
 
+#: steps solved per call of the step loop when a sweep tells its progress
+CHUNK = 2000
+
+#: a posture whose smallest pivot (the Jacobian's entries are of order 1 in internal units)
+#: is below this is singular or so near it that its geometric derivatives are noise: the
+#: step keeps the tangent of the last regular posture
+NEAR_SINGULAR = 1e-7
+
+#: a converged step that moved across the tangent-continuous prediction by more than this
+#: fraction of the predicted step left the branch the motion came along (a branch change
+#: at a change point or bifurcation): it is retried in smaller steps, where the prediction
+#: error falls as the cube of the step and the branches part only linearly.  Along the
+#: prediction (a driver near its end of travel) any change is accepted.
+JUMP = 0.5
+
+
 @njit(nrt=False)
 def sweep_steps(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, drive: tuple,
                 opt: tuple, out: tuple) -> tuple[int, int]:
@@ -155,6 +182,16 @@ def sweep_steps(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, drive: t
     from the same final elimination (:func:`joint_rates`).  Returns (steps
     solved, status of the first failure or OK); S.q ends at the last solved
     posture.
+
+    Singular postures (book 6.9): the prediction always continues the
+    tangent of the motion.  At a posture where the rank of the Jacobian drops
+    (a change point, a bifurcation, a dead point), the geometric derivatives
+    are not determined there (nor, within :data:`NEAR_SINGULAR`, near it):
+    the step keeps those of the last regular posture, so the next prediction
+    leaves the singular posture along the incoming tangent instead of a
+    direction the rank deficiency made up.  A
+    converged step that moved across the prediction by more than :data:`JUMP`
+    of the step (another branch) is retried in halves.
     """
     d = data_views(DP)
     q = S.q
@@ -162,17 +199,21 @@ def sweep_steps(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, drive: t
     cols = drive.cols
     nd = cols.shape[0]
     chord = not opt.rates
-    # the elimination at the start posture provides the first predictor
-    st, it, rank, det, rest = newton(KP, DP, S, gen, opt.tol, opt.ptol, opt.maxit, False)
-    if st != OK:
-        return 0, st
-    rank_ref = rank
-    for j in range(nd):
-        d.isdriver[cols[j]] = True
-    derivatives(DP, rank, cols, d.G)
-    for c in range(nq):
-        d.qlast[c] = q[c]
-    has_prev = False
+    if opt.resume:  # the last call left its posture, tangents and regular rank in the data
+        rank_ref = d.loop[0]
+        has_prev = d.loop[1] != 0
+    else:
+        # the elimination at the start posture provides the first predictor
+        st, it, rank, det, rest = newton(KP, DP, S, gen, opt.tol, opt.ptol, opt.maxit, False)
+        if st != OK:
+            return 0, st
+        rank_ref = rank
+        for j in range(nd):
+            d.isdriver[cols[j]] = True
+        derivatives(DP, rank, cols, d.G)
+        for c in range(nq):
+            d.qlast[c] = q[c]
+        has_prev = False
     for k in range(drive.values.shape[0]):
         frac = 1.0
         done = False
@@ -184,18 +225,44 @@ def sweep_steps(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, drive: t
             if last:
                 for j in range(nd):
                     q[cols[j]] = drive.values[k, j]
+            for c in range(nq):
+                d.qpred[c] = q[c]
             st, it, rank, det, rest = newton(KP, DP, S, gen, opt.tol, opt.ptol, opt.maxit,
                                              chord)
             total_it += it
+            jump = 0.0
+            if st == OK and has_prev:
+                # the part of the step across the predicted direction, relative to the
+                # predicted step: another branch leaves sideways; the end of travel of a
+                # driver (a fold) only shortens or lengthens the step along it
+                aa = 0.0
+                ap = 0.0
+                pp = 0.0
+                for c in range(nq):
+                    a = q[c] - d.qlast[c]
+                    pr = d.qpred[c] - d.qlast[c]
+                    aa += a * a
+                    ap += a * pr
+                    pp += pr * pr
+                if pp > 0.0:
+                    jump = math.sqrt(max(aa - ap * ap / pp, 0.0) / pp)
+                if (jump > JUMP and math.sqrt(jump * jump * pp) > 100.0 * opt.tol
+                        and frac >= 2.0 * 0.5 ** opt.maxhalve):
+                    st = BRANCH  # another branch: retry the step in halves
             if st == OK:
                 for j in range(nd):
                     d.dprev[j] = q[cols[j]] - d.qlast[cols[j]]
                 for c in range(nq):
                     d.qlast[c] = q[c]
-                for r in range(nq):
-                    for j in range(nd):
-                        d.Gp[r, j] = d.G[r, j]
-                derivatives(DP, rank, cols, d.G)
+                if rank > rank_ref:
+                    rank_ref = rank
+                smallest = abs(1.0 / d.pinv[rank - 1]) if rank > 0 else 1.0
+                if rank == rank_ref and smallest > NEAR_SINGULAR:
+                    # a singular posture keeps the incoming tangent
+                    for r in range(nq):
+                        for j in range(nd):
+                            d.Gp[r, j] = d.G[r, j]
+                    derivatives(DP, rank, cols, d.G)
                 has_prev = True
                 if last:
                     done = True
@@ -206,6 +273,8 @@ def sweep_steps(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, drive: t
                 if frac < 0.5 ** opt.maxhalve:
                     for c in range(nq):
                         q[c] = d.qlast[c]
+                    d.loop[0] = rank_ref
+                    d.loop[1] = 1 if has_prev else 0
                     return k, st
         for c in range(nq):
             out.Q[k, c] = q[c]
@@ -219,6 +288,7 @@ def sweep_steps(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, drive: t
         out.quality[k] = det
         out.rank[k] = rank
         out.iters[k] = total_it
+        out.jump[k] = jump
         if opt.rates:
             out.cons[k] = joint_rates(KP, DP, S, gen, drive.rates[k], drive.accels[k], rank)
             for c in range(nq):
@@ -230,6 +300,8 @@ def sweep_steps(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, drive: t
             S.fgc[d.pcol[t]] = False
         for c in range(nq):
             out.fgc[k, c] = S.fgc[c]
+    d.loop[0] = rank_ref
+    d.loop[1] = 1 if has_prev else 0
     return drive.values.shape[0], OK
 
 
@@ -337,7 +409,8 @@ def failure_message(
     """Why step ``k`` of a sweep could not be solved, and the last good posture."""
     scale = np.array([system.var_scale[system.var_index(n)] for n in names])
     want = ", ".join(f"{n} = {v:.8g}" for n, v in zip(names, dvals[k] * scale))
-    why = {MAXITER: "Newton did not converge", DIVERGED: "Newton diverged"}.get(
+    why = {MAXITER: "Newton did not converge", DIVERGED: "Newton diverged",
+           BRANCH: "every solution Newton found left the branch of the motion"}.get(
         status, f"status {status}")
     last = f"step {k - 1}" if k > 0 else "the start posture"
     return (
@@ -362,6 +435,9 @@ def sweep(
     hold_free: bool = False,
     start: np.ndarray | None = None,
     steps: int | None = None,
+    branch: str = "smooth",
+    at_limit: str = "stop",
+    progress: Callable[[int, int], None] | None = None,
 ) -> Trajectory:
     """Move ``system`` through the driver values and solve every posture.
 
@@ -380,10 +456,29 @@ def sweep(
     (passive freedoms, such as the spin of an RSSR coupler, are held anyway).
     An unreachable posture ends the sweep with :attr:`Trajectory.message`
     set; every posture solved before is kept.
+
+    Singular postures (book 6.9) are reported in
+    :attr:`Trajectory.singularities` (:mod:`openimp.kinematics.singular`).
+    At a change point, where branches of motion meet, the motion continues on
+    the branch whose tangent continues the incoming motion
+    (``branch="smooth"``, what a real mechanism with inertia does) or, with
+    ``branch="other"``, on the other branch.  At a dead point of the driver (its
+    limit of travel) the sweep stops with a message (``at_limit="stop"``) or,
+    with ``at_limit="switch"``, drives the joint variable that moves most there
+    and goes on for the remaining steps (IMP's automatic driver switching,
+    reported in :attr:`Trajectory.switches`).
+
+    ``progress(done, total)`` is called as the steps are solved (in chunks of
+    :data:`CHUNK`); Ctrl-C then ends the sweep with every step solved before
+    (:attr:`Trajectory.interrupted`).
     """
     from openimp.motion import as_motion
 
     check_solver_options(tol, pivot_tol, maxit, maxhalve)
+    if branch not in ("smooth", "other"):
+        raise InputError(f"branch must be 'smooth' or 'other', got {branch!r}")
+    if at_limit not in ("stop", "switch"):
+        raise InputError(f"at_limit must be 'stop' or 'switch', got {at_limit!r}")
     tarr = None
     if motion is not None:
         if drivers is not None or rates is not None or accels is not None:
@@ -415,18 +510,224 @@ def sweep(
     nr = nsteps if want else 0
     out = SweepOut(np.zeros((nsteps, nq)), np.zeros((nr, nq)), np.zeros((nr, nq)),
                    np.zeros(nsteps), np.zeros(nsteps, np.int64), np.zeros((nsteps, nq), np.bool_),
-                   np.zeros(nsteps, np.int64), np.zeros(nr))
-    drive = Drive(dcols, np.ascontiguousarray(dvals), rd, ad)
-    done, status = sweep_steps(system.KP, data.DP, S, system.gen, drive,
-                               Solver(float(tol), float(pivot_tol), int(maxit), int(maxhalve),
-                                      want), out)
+                   np.zeros(nsteps, np.int64), np.zeros(nr), np.zeros(nsteps))
+    run = _Run(system, data, S, dcols, np.ascontiguousarray(dvals), rd, ad, out,
+               Solver(float(tol), float(pivot_tol), int(maxit), int(maxhalve), want),
+               rank0, quality0)
+    done, status = run.solve(branch, at_limit, progress)
     names = [system.var_names[c] for c in dcols]
-    msg = "" if done == nsteps else failure_message(system, names, dvals, done, status)
+    if run.interrupted:
+        msg = f"step {done}: interrupted by the user (Ctrl-C); the {done} steps before it are kept"
+    else:
+        msg = "" if done == nsteps else failure_message(system, names, run.values, done, status)
     res = Trajectory(system, out.Q[:done], out.quality[:done], out.rank[:done], out.fgc[:done],
                      out.iters[:done], names, msg, tracker=tracker(system), sgc=S.sgc.copy())
     res.rank_ref, res.quality_ref = rank0, quality0
+    res.interrupted = run.interrupted
+    res.singularities = run.singularities(done)
+    res.switches = run.switches
     if want:
         res.set_rates(out.QD[:done], out.QDD[:done], out.cons[:done])
     if tarr is not None:
         res.time = tarr[:done]
     return res
+
+
+class _Run:
+    """A sweep in segments: the step loop, and the choices at singular postures between.
+
+    One call of :func:`sweep_steps` does the whole motion unless the user
+    asked for the other branch at a change point or a driver switch at a
+    dead point; then each such posture ends a segment and the next starts
+    from the chosen posture (:mod:`openimp.kinematics.singular`).
+    """
+
+    def __init__(self, system: System, data: Any, S: Any, dcols: np.ndarray,
+                 values: np.ndarray, rd: np.ndarray, ad: np.ndarray, out: SweepOut,
+                 opt: Solver, rank0: int, quality0: float) -> None:
+        self.system, self.data, self.S, self.out, self.opt = system, data, S, out, opt
+        self.values, self.rd, self.ad = values.copy(), rd.copy(), ad.copy()
+        self.rank0, self.quality0 = rank0, quality0
+        #: (first step, driver columns, specified columns) of every segment
+        self.segments: list[tuple[int, np.ndarray, np.ndarray]] = []
+        self.cols = dcols
+        self.branches: dict[int, str] = {}
+        #: change points where the other branch was taken (found, segment start)
+        self.crossed: list[tuple[int, bool, float, np.ndarray, float, int]] = []
+        self.switches: list[DriverSwitch] = []
+        self.handled = -1
+        self.interrupted = False
+        #: dead points where the sweep stopped or switched: (step, posture, what was done)
+        self.limits: list[tuple[int, np.ndarray, str]] = []
+        self.start = S.q.copy()
+        self._full_ref: tuple[int, float] | None = None
+
+    @property
+    def full_ref(self) -> tuple[int, float]:
+        """Rank and quality index of the whole Jacobian at the start posture (regular)."""
+        if self._full_ref is None:
+            self._full_ref = sing.full_quality(self.system, self.start, self.opt.ptol)
+        return self._full_ref
+
+    def _kernel(self, k0: int, k1: int, resume: bool) -> tuple[int, int]:
+        """Solve steps k0..k1-1 from the state's posture (or, with ``resume``, where the
+        last call stopped); (steps solved from k0, status)."""
+        o = self.out
+        sl = slice(k0, k1)
+        rs = sl if o.QD.shape[0] else slice(0, 0)
+        part = SweepOut(o.Q[sl], o.QD[rs], o.QDD[rs], o.quality[sl], o.rank[sl], o.fgc[sl],
+                        o.iters[sl], o.cons[rs], o.jump[sl])
+        if not resume:
+            self.data.view("isdriver")[:] = False
+            self.segments.append((k0, self.cols.copy(), self.S.sgc.copy()))
+        drive = Drive(self.cols, np.ascontiguousarray(self.values[sl]),
+                      np.ascontiguousarray(self.rd[sl]), np.ascontiguousarray(self.ad[sl]))
+        return sweep_steps(self.system.KP, self.data.DP, self.S, self.system.gen, drive,
+                           self.opt._replace(resume=resume), part)
+
+    def solve(self, branch: str, at_limit: str,
+              progress: Callable[[int, int], None] | None) -> tuple[int, int]:
+        """Every step, with the user's choices; (steps solved, status).  With
+        ``progress`` the steps are solved in chunks of :data:`CHUNK`, told after each;
+        Ctrl-C between chunks ends the sweep with what was solved."""
+        n = self.values.shape[0]
+        k0, resume = 0, False
+        try:
+            while True:
+                k1 = min(n, k0 + CHUNK) if progress is not None else n
+                done, status = self._kernel(k0, k1, resume)
+                k = k0 + done
+                seg = self.segments[-1][0]
+                if branch == "other":
+                    nxt = self._other(seg, k)
+                    if nxt is not None:
+                        k0, resume = nxt, False
+                        continue
+                if status == OK and k < n:  # a chunk solved: on with the next
+                    k0, resume = k, True
+                    if progress is not None:
+                        progress(k, n)
+                    continue
+                if k < n and at_limit == "switch" and self._switch(k):
+                    k0, resume = k, False
+                    continue
+                if k < n:
+                    self.limits.append((k, self.S.q.copy(), "the sweep stops there"))
+                k0 = k
+                if progress is not None:
+                    progress(k, n)
+                return k, status
+        except KeyboardInterrupt:
+            self.interrupted = True
+            return k0, INTERRUPTED
+
+    def _found(self, k0: int, k1: int) -> list[tuple[int, bool, float, np.ndarray, float]]:
+        """Singular postures among the steps k0..k1-1 of the segment starting at k0."""
+        if k1 - k0 < 1:
+            return []
+        seg = [s for s in self.segments if s[0] <= k0][-1]
+        S = self.S.copy()
+        S.sgc[:] = seg[2]
+        opt = sing.Solver(self.opt.tol, self.opt.ptol, self.opt.maxit, seg[1])
+        o = self.out
+        Q = o.Q[k0:k1]
+        rank_ref = max(self.rank0, int(o.rank[:k1].max()))
+        quality_ref = max(self.quality0, float(o.quality[:k1].max()))
+        return sing.find(self.system, S, opt, Q, Q[:, seg[1]], o.rank[k0:k1],
+                         o.quality[k0:k1], rank_ref, quality_ref)
+
+    def _other(self, k0: int, k: int) -> int | None:
+        """After a segment: the first change point not yet handled; solve the first step
+        after it on the other branch and return that step (None: nothing to do)."""
+        o = self.out
+        for step, landed, pos, q, _qual in self._found(k0, k):
+            step += k0
+            pos += k0
+            if step <= self.handled:
+                continue
+            kind = sing.classify(self.system, q, self.S.sgc, self.opt.ptol, self.full_ref,
+                                 self.system.nq - self.rank0)[0]
+            if kind != sing.CHANGE_POINT:
+                continue
+            self.handled = step
+            k1 = step + 1 if landed else step
+            kb = math.floor(pos - 1e-9) if not landed else step - 1
+            if k1 >= k or kb < 0:
+                return None
+            tangent = (q - o.Q[kb]) * (k1 - pos) / (pos - kb)
+            opt = sing.Solver(self.opt.tol, self.opt.ptol, self.opt.maxit, self.cols)
+            q2 = sing.other_branch(self.system, self.S, opt, q, tangent, self.values[k1])
+            if isinstance(q2, str):
+                self.branches[step] = f"the other branch was asked for, but {q2}"
+                continue
+            self.branches[step] = "other"
+            # the segment ends before the step after it: remember the posture for the report
+            self.crossed.append((step, landed, pos, q.copy(), _qual, k0))
+            self.S.q[:] = q2
+            return k1
+        return None
+
+    def _switch(self, k: int) -> bool:
+        """At a dead point reached at step k: drive another variable from there on
+        (True), or leave the failure (False)."""
+        if self.cols.size != 1:
+            return False
+        S, o = self.S, self.out
+        previous = o.Q[k - 1] if k >= 1 else S.q
+        q = S.q.copy()
+        kind = sing.classify(self.system, q, S.sgc, self.opt.ptol, self.full_ref,
+                             self.system.nq - self.rank0)[0]
+        if kind != sing.DEAD_POINT:
+            return False
+        old = int(self.cols[0])
+        picked = sing.new_driver(self.system, S, self.opt.ptol, old, q, previous)
+        if picked is None:
+            return False
+        c, step = picked
+        if k >= 2:  # as far along the motion per step as the steps before took
+            arcs = np.linalg.norm(np.diff(o.Q[:k], axis=0), axis=1)
+            step *= float(np.median(arcs)) / max(float(np.linalg.norm(q - previous)), 1e-300)
+        m = self.values.shape[0] - k
+        self.values[k:, 0] = q[c] + step * np.arange(1, m + 1)
+        rate = o.QD[k - 1, c] / self.system.var_scale[c] if o.QD.shape[0] and k >= 1 else 0.0
+        self.rd[k:, 0] = rate
+        self.ad[k:, 0] = 0.0
+        S.sgc[old] = False
+        S.sgc[c] = True
+        self.cols = np.array([c], np.int64)
+        names = self.system.var_names
+        self.switches.append(DriverSwitch(k, names[old], names[c],
+                                          float(self.values[k, 0] * self.system.var_scale[c])))
+        self.limits.append((k, q, f"the input switched to {names[c]} there"))
+        return True
+
+    def singularities(self, done: int) -> list[Singularity]:
+        """The singular postures of the solved steps, segment by segment."""
+        out: list[Singularity] = []
+        bounds = [s[0] for s in self.segments] + [done]
+        seen: set[int] = set()
+        for (k0, cols, sgc), k1 in zip(self.segments, bounds[1:]):
+            k1 = min(k1, done)
+            found = [(st + k0, la, pos + k0, q, qu) for st, la, pos, q, qu
+                     in self._found(k0, k1)]
+            found += [c[:5] for c in self.crossed if c[5] == k0]
+            found.sort(key=lambda f: f[2])
+            found = [f for f in found if f[0] not in seen]
+            seen.update(f[0] for f in found)
+            names = [self.system.var_names[c] for c in cols]
+            scale = np.array([self.system.var_scale[c] for c in cols])
+            out += sing.report(self.system, found, self.out.Q[:, cols], names, scale, sgc,
+                               self.opt.ptol, self.full_ref, self.system.nq - self.rank0,
+                               self.branches)
+        for k, q, what in self.limits:  # the postures nearest where the input gave out
+            seg = ([s for s in self.segments if s[0] < k] or self.segments)[-1]
+            kind, mob, free = sing.classify(self.system, q, seg[2], self.opt.ptol,
+                                            self.full_ref, self.system.nq - self.rank0)
+            if kind != sing.DEAD_POINT:
+                continue
+            drivers = {self.system.var_names[c]: float(q[c] * self.system.var_scale[c])
+                       for c in seg[1]}
+            out.append(Singularity(k, False, k - 0.5, drivers, kind, mob,
+                                   self.system.nq - self.rank0, free, what, 0.0))
+        out.sort(key=lambda r: r.position)
+        return out

@@ -39,8 +39,6 @@ from openimp.results import Trajectory
 _NAN = math.nan
 
 
-#: steps solved per call of the sweep (progress is reported between chunks)
-CHUNK = 2000
 
 
 def _value_reads_model(name: str, values: dict[str, Expression], seen: set[str]) -> bool:
@@ -206,7 +204,8 @@ def solve(prep: Prepared, times: np.ndarray, start: np.ndarray | None,
         if not lagged:
             motions.fill(0, n, None)
     names = [system.var_names[c] for c in drv_cols]
-    opts = {"tol": tol, "pivot_tol": ptol, "maxit": maxit, "hold_free": True}
+    opts = {"tol": tol, "pivot_tol": ptol, "maxit": maxit, "hold_free": True,
+            "branch": st.branch, "at_limit": st.at_limit}
     message = ""
     interrupted = False
     last: Solution | None = None
@@ -215,7 +214,7 @@ def solve(prep: Prepared, times: np.ndarray, start: np.ndarray | None,
         if lagged:  # the values at the start posture: a sweep that holds every driver
             last = _start_values(system, cur, drv_cols, names, times, opts)
         while k < n:
-            m = 1 if lagged else min(CHUNK, n - k)
+            m = 1 if lagged else n - k
             if lagged:
                 ref = last if last is not None and last.n else None
                 motions.fill(k, k + 1, lambda kk, s=ref: _resolver(
@@ -226,24 +225,30 @@ def solve(prep: Prepared, times: np.ndarray, start: np.ndarray | None,
                 if m <= 0:
                     break
             sl = slice(k, k + m)
+            told = None
+            if progress is not None and not lagged:
+                def told(done: int, total: int, k0: int = k) -> None:
+                    progress(k0 + done, n)
             try:
                 res = sweep(system, {c: motions.p[sl, j] for j, c in enumerate(names)},
                             rates={c: motions.v[sl, j] for j, c in enumerate(names)},
                             accels={c: motions.a[sl, j] for j, c in enumerate(names)},
-                            start=cur, **opts)
+                            start=cur, progress=told, **opts)
             except InputError as exc:
                 message = _stop_message(prep, times, k, motions, f"{exc}")
                 break
             parts.append(res)
             if lagged and res.nsteps:
                 last = Solution(res, times[k:k + 1])
+            if res.interrupted:
+                raise KeyboardInterrupt
             if res.message:
                 message = _stop_message(prep, times, k + res.nsteps, motions,
                                         _why(res.message))
                 break
             cur = res.q[-1]
             k += m
-            if progress is not None:
+            if progress is not None and lagged:
                 progress(k, n)
     except KeyboardInterrupt:
         interrupted = True

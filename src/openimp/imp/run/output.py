@@ -111,6 +111,18 @@ class Context:
         self.folder.claim(path)
 
 
+def singular_notes(sol: Solution, stepped: bool) -> list[str]:
+    """One message per singular posture and driver switch of a solved run."""
+    out = []
+    for r in sol.traj.singularities:
+        k = min(r.step, sol.n - 1)
+        out.append(f"Singular posture {r}" + ("" if stepped or k < 0 else
+                                              f" (time near {sol.times[k]:.6g})"))
+    for w in sol.traj.switches:
+        out.append(f"Input switched: {w}")
+    return out
+
+
 def _ascii(text: str) -> str:
     """``text`` for a picture: printable ASCII, any other character as '?' (the fonts
     of the pictures need not have a glyph for it, and IMP titles are ASCII)."""
@@ -162,6 +174,8 @@ def execute_run(spec: RunSpec, ctx: Context) -> Run:
     sol = SOLVERS[spec.mode](prep, times, start, notes, prog)
     bodies, points = needs(prep, sol.n)
     sol.traj.prefetch(bodies, points)  # one pass over the steps for every table
+    for text in singular_notes(sol, stepped(state)):
+        notes.append(text)
     if not (sol.stop or sol.interrupted) and sol.n:
         sol = _value_stop(prep, sol, notes)
     # tables
