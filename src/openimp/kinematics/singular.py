@@ -53,8 +53,9 @@ NEAR = 1e-6
 #: below this fraction of its regular value there (a dead point leaves it regular)
 CHANGE = 1e-4
 #: the searched posture is singular when its quality index falls below this fraction
-#: of the regular one
-VANISH = 1e-7
+#: of the regular one (Newton's postures next to a singular one are accurate only to
+#: about the square root of its tolerance, and the index with them)
+VANISH = 1e-5
 _GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
 
 
@@ -222,8 +223,8 @@ def find(system: System, state: State, opt: Solver, Q: np.ndarray, D: np.ndarray
             if found is not None and found[2] < VANISH * quality_ref:
                 s, q, qual, _ = found
                 pos = k - 1 + s
-                step = math.ceil(pos - 1e-6)
-                out.append((step, abs(pos - round(pos)) < 1e-6, pos, q, qual))
+                step = math.ceil(pos - 1e-4)
+                out.append((step, abs(pos - round(pos)) < 1e-4, pos, q, qual))
         k += 1
     return out
 

@@ -157,14 +157,14 @@ CHUNK = 2000
 #: a posture whose smallest pivot (the Jacobian's entries are of order 1 in internal units)
 #: is below this is singular or so near it that its geometric derivatives are noise: the
 #: step keeps the tangent of the last regular posture
-NEAR_SINGULAR = 1e-7
+NEAR_SINGULAR = 1e-4
 
 #: a converged step that moved across the tangent-continuous prediction by more than this
 #: fraction of the predicted step left the branch the motion came along (a branch change
 #: at a change point or bifurcation): it is retried in smaller steps, where the prediction
 #: error falls as the cube of the step and the branches part only linearly.  Along the
 #: prediction (a driver near its end of travel) any change is accepted.
-JUMP = 0.5
+JUMP = 0.1
 
 
 @njit(nrt=False)
@@ -246,8 +246,7 @@ def sweep_steps(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, drive: t
                     pp += pr * pr
                 if pp > 0.0:
                     jump = math.sqrt(max(aa - ap * ap / pp, 0.0) / pp)
-                if (jump > JUMP and math.sqrt(jump * jump * pp) > 100.0 * opt.tol
-                        and frac >= 2.0 * 0.5 ** opt.maxhalve):
+                if jump > JUMP and math.sqrt(jump * jump * pp) > 100.0 * opt.tol:
                     st = BRANCH  # another branch: retry the step in halves
             if st == OK:
                 for j in range(nd):
@@ -256,7 +255,9 @@ def sweep_steps(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, drive: t
                     d.qlast[c] = q[c]
                 if rank > rank_ref:
                     rank_ref = rank
-                smallest = abs(1.0 / d.pinv[rank - 1]) if rank > 0 else 1.0
+                smallest = 1.0
+                for t in range(rank):
+                    smallest = min(smallest, abs(1.0 / d.pinv[t]))
                 if rank == rank_ref and smallest > NEAR_SINGULAR:
                     # a singular posture keeps the incoming tangent
                     for r in range(nq):
@@ -650,8 +651,9 @@ class _Run:
             if kind != sing.CHANGE_POINT:
                 continue
             self.handled = step
-            k1 = step + 1 if landed else step
-            kb = math.floor(pos - 1e-9) if not landed else step - 1
+            # the steps before and after it, far enough to tell the branches apart
+            k1 = math.ceil(pos + 0.01)
+            kb = math.floor(pos - 0.01)
             if k1 >= k or kb < 0:
                 return None
             tangent = (q - o.Q[kb]) * (k1 - pos) / (pos - kb)
