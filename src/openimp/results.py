@@ -242,8 +242,8 @@ class Trajectory:
 
     @property
     def mobility(self) -> np.ndarray:
-        """Mobility f = n - rank(J) at every step (6.52)."""
-        return self.system.nq - self.rank
+        """Mobility f = n - rank(J) at every step (6.52) (read-only)."""
+        return self._cached("mobility", lambda: _frozen(self.system.nq - self.rank))
 
     @property
     def fgc(self) -> list[list[str]]:

@@ -185,6 +185,27 @@ def classify(system: System, q: np.ndarray, sgc: np.ndarray, ptol: float,
     return DEAD_POINT, free_ref, free
 
 
+def candidates(rank: np.ndarray, quality: np.ndarray, rank_ref: int, quality_ref: float
+               ) -> tuple[np.ndarray | None, np.ndarray]:
+    """The steps that are singular (rank below ``rank_ref``) and the steps whose quality
+    index dips as :data:`DIP` says, as two masks; (None, ...) when there are none.
+
+    Written for the ordinary sweep, which has none: one comparison over the
+    steps decides that, the rest is done for the few low steps only.
+    """
+    n = quality.shape[0]
+    low = rank < rank_ref
+    dip = np.zeros(n, bool)
+    small = np.flatnonzero(quality[1:-1] < DIP * quality_ref) + 1 if n >= 3 else []
+    for k in small:
+        qk, ql, qr = quality[k], quality[k - 1], quality[k + 1]
+        dip[k] = (qk <= ql and qk <= qr and 2.0 * qk <= max(ql, qr)
+                  and not (low[k - 1] or low[k] or low[k + 1]))
+    if not (low.any() or dip.any()):
+        return None, dip
+    return low, dip
+
+
 def find(system: System, state: State, opt: Solver, Q: np.ndarray, D: np.ndarray,
          rank: np.ndarray, quality: np.ndarray, rank_ref: int, quality_ref: float
          ) -> list[tuple[int, bool, float, np.ndarray, float]]:
@@ -198,13 +219,8 @@ def find(system: System, state: State, opt: Solver, Q: np.ndarray, D: np.ndarray
     """
     out: list[tuple[int, bool, float, np.ndarray, float]] = []
     n = Q.shape[0]
-    low = rank < rank_ref
-    dip = np.zeros(n, bool)
-    if n >= 3:  # candidates in numpy: an ordinary sweep has none and pays a few microseconds
-        qm, ql, qr = quality[1:-1], quality[:-2], quality[2:]
-        dip[1:-1] = ((qm <= ql) & (qm <= qr) & (2.0 * qm <= np.maximum(ql, qr))
-                     & (qm < DIP * quality_ref) & ~low[:-2] & ~low[2:] & ~low[1:-1])
-    if not (low.any() or dip.any()):
+    low, dip = candidates(rank, quality, rank_ref, quality_ref)
+    if low is None:
         return out
     data = make_data(system)
     k = 0

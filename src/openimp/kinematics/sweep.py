@@ -626,14 +626,16 @@ class _Run:
         """Singular postures among the steps k0..k1-1 of the segment starting at k0."""
         if k1 - k0 < 1:
             return []
+        o = self.out
+        rank_ref = max(self.rank0, int(o.rank[:k1].max()))
+        quality_ref = max(self.quality0, float(o.quality[:k1].max()))
+        if sing.candidates(o.rank[k0:k1], o.quality[k0:k1], rank_ref, quality_ref)[0] is None:
+            return []  # the ordinary sweep: nothing to search
         seg = [s for s in self.segments if s[0] <= k0][-1]
         S = self.S.copy()
         S.sgc[:] = seg[2]
         opt = sing.Solver(self.opt.tol, self.opt.ptol, self.opt.maxit, seg[1])
-        o = self.out
         Q = o.Q[k0:k1]
-        rank_ref = max(self.rank0, int(o.rank[:k1].max()))
-        quality_ref = max(self.quality0, float(o.quality[:k1].max()))
         return sing.find(self.system, S, opt, Q, Q[:, seg[1]], o.rank[k0:k1],
                          o.quality[k0:k1], rank_ref, quality_ref)
 
