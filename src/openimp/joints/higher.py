@@ -525,6 +525,12 @@ def _gear_consts(name: str, kw: dict[str, Any]) -> np.ndarray:
         else:
             R = Rp = D0 = math.nan  # completed from the frames at assembly
     _check_gear_ratio(args, ratio)
+    alpha, beta, sg = _tooth_angles(args)
+    return np.array([R, Rp, D0, math.cos(alpha), math.sin(alpha), math.tan(beta), sg, ratio])
+
+
+def _tooth_angles(args: ConstArgs) -> tuple[float, float, float]:
+    """A gear's or rack's pressure angle (20 deg), helix angle (0) and initial load sign."""
     alpha = args.number("pressure_angle", math.radians(20.0))
     if not 0.0 <= alpha < 0.5 * math.pi:
         raise args.err(f"pressure_angle must be in [0, pi/2) radians, got {alpha:g}")
@@ -534,7 +540,7 @@ def _gear_consts(name: str, kw: dict[str, Any]) -> np.ndarray:
     sg = args.number("load_sign", 0.0)
     if sg not in (-1.0, 0.0, 1.0):
         raise args.err(f"load_sign must be -1, 0 or +1, got {sg:g}")
-    return np.array([R, Rp, D0, math.cos(alpha), math.sin(alpha), math.tan(beta), sg, ratio])
+    return alpha, beta, sg
 
 
 def _check_gear_ratio(args: ConstArgs, ratio: float) -> None:
@@ -604,15 +610,7 @@ def _rack_consts(name: str, kw: dict[str, Any]) -> np.ndarray:
         raise args.err("give radius= (pinion pitch radius: + if the pinion is on the +v side "
                        "of the rack, - otherwise)")
     Rp = args.number("radius", nonzero=True)
-    alpha = args.number("pressure_angle", math.radians(20.0))
-    if not 0.0 <= alpha < 0.5 * math.pi:
-        raise args.err(f"pressure_angle must be in [0, pi/2) radians, got {alpha:g}")
-    beta = args.number("helix_angle", 0.0)
-    if not abs(beta) < 0.5 * math.pi:
-        raise args.err(f"helix_angle must be in (-pi/2, pi/2) radians, got {beta:g}")
-    sg = args.number("load_sign", 0.0)
-    if sg not in (-1.0, 0.0, 1.0):
-        raise args.err(f"load_sign must be -1, 0 or +1, got {sg:g}")
+    alpha, beta, sg = _tooth_angles(args)
     return np.array([Rp, math.tan(alpha), math.tan(beta), sg])
 
 

@@ -153,19 +153,17 @@ def full_quality(system: System, q: np.ndarray, ptol: float, rank_ref: int = 0
     return int(rank), quality_of(int(rank), det, rest, rank_ref)
 
 
-def gained(system: System, q: np.ndarray, sgc: np.ndarray, ptol: float
-           ) -> tuple[int, list[str], Data, int]:
-    """At ``q`` with ``sgc`` specified: the rank, the names of the free coordinates
-    beyond the specified ones (Euler-Rodrigues parameters excepted), and the
-    elimination (data, rank) they come from."""
+def gained(system: System, q: np.ndarray, sgc: np.ndarray, ptol: float) -> list[str]:
+    """At ``q`` with ``sgc`` specified: the names of the free coordinates beyond the
+    specified ones (Euler-Rodrigues parameters excepted), pivots below :data:`NEAR`
+    counting as lost."""
     data = make_data(system)
     S = make_state(system, q)
     S.sgc[:] = sgc
     rank = int(eliminate_at(system, data, S, max(ptol, NEAR))[0])
     piv = set(data.view("pcol")[:rank].tolist())
-    free = [system.var_names[c] for c in range(system.nq)
+    return [system.var_names[c] for c in range(system.nq)
             if c not in piv and not sgc[c] and system.var_kinds[c] != "er"]
-    return rank, free, data, rank
 
 
 def classify(system: System, q: np.ndarray, sgc: np.ndarray, ptol: float,
@@ -179,7 +177,7 @@ def classify(system: System, q: np.ndarray, sgc: np.ndarray, ptol: float,
     ``free_ref``: the regular mobility.
     """
     rf, qf = full_quality(system, q, ptol, full_ref[0])
-    _, free, _, _ = gained(system, q, sgc, ptol)
+    free = gained(system, q, sgc, ptol)
     if rf < full_ref[0] or qf < CHANGE * full_ref[1]:
         return CHANGE_POINT, free_ref + max(full_ref[0] - rf, 1), free
     return DEAD_POINT, free_ref, free
