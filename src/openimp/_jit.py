@@ -138,12 +138,6 @@ prange = _numba.prange if JIT_ENABLED else range
 HEAD = 5
 
 
-def _field_py(buf: Any, H: Any, k: int, ndim: int) -> Any:
-    """Field ``k`` of a packed buffer: the view its header entries in ``H`` describe."""
-    o = int(H[HEAD * k])
-    return _view_py(buf, o, *(int(d) for d in H[HEAD * k + 1:HEAD * k + 1 + ndim]))
-
-
 def _view_py(buf: Any, o: int, *shape: int) -> Any:
     """``buf[o:o + prod(shape)].reshape(shape)``: a C-ordered view of a flat buffer."""
     n = 1
@@ -158,24 +152,31 @@ if JIT_ENABLED:
     from numba.extending import intrinsic
     from numba.np.arrayobj import make_array, populate_array
 
+    def _make_view(context: Any, builder: Any, rty: Any, bty: Any, buf: Any, off: Any,
+                   shape: list[Any]) -> Any:
+        """A C-ordered ``rty`` view of ``shape`` at element ``off`` of the flat buffer
+        ``buf`` (of type ``bty``); no reference is taken."""
+        src = make_array(bty)(context, builder, value=buf)
+        dst = make_array(rty)(context, builder)
+        item = context.get_constant(types.intp, context.get_abi_sizeof(
+            context.get_data_type(rty.dtype)))
+        strides = [item] * rty.ndim
+        for k in range(rty.ndim - 2, -1, -1):
+            strides[k] = builder.mul(strides[k + 1], shape[k + 1])
+        data = cgutils.gep_inbounds(builder, src.data, off)
+        populate_array(dst, data=data, shape=shape, strides=strides,
+                       itemsize=src.itemsize, meminfo=src.meminfo, parent=src.parent)
+        return dst._getvalue()
+
     def _view_codegen(rty: Any) -> Callable[..., Any]:
         """Code of a C-ordered ``rty`` view of a flat buffer (see :data:`view1`)."""
 
         def codegen(context: Any, builder: Any, sig: Any, args: Any) -> Any:
-            src = make_array(sig.args[0])(context, builder, value=args[0])
-            dst = make_array(rty)(context, builder)
             off = context.cast(builder, args[1], sig.args[1], types.intp)
             shape = [context.cast(builder, a, t, types.intp)
                      for a, t in zip(args[2:], sig.args[2:], strict=True)]
-            item = context.get_constant(types.intp, context.get_abi_sizeof(
-                context.get_data_type(rty.dtype)))
-            strides = [item] * rty.ndim
-            for k in range(rty.ndim - 2, -1, -1):
-                strides[k] = builder.mul(strides[k + 1], shape[k + 1])
-            data = cgutils.gep_inbounds(builder, src.data, off)
-            populate_array(dst, data=data, shape=shape, strides=strides,
-                           itemsize=src.itemsize, meminfo=src.meminfo, parent=src.parent)
-            return impl_ret_borrowed(context, builder, rty, dst._getvalue())
+            value = _make_view(context, builder, rty, sig.args[0], args[0], off, shape)
+            return impl_ret_borrowed(context, builder, rty, value)
 
         return codegen
 
@@ -216,59 +217,60 @@ if JIT_ENABLED:
         rty = _view_type(buf, 4)
         return None if rty is None else (rty(buf, o, d0, d1, d2, d3), _view_codegen(rty))
 
-    def _field_codegen(rty: Any) -> Callable[..., Any]:
-        """Code of field ``k`` of a packed buffer: offset and dimensions read from H."""
+    def packed_views(layout: tuple[tuple[int, int], ...], cls: type) -> Callable[..., Any]:
+        """An intrinsic ``unpack(P)``: the named tuple ``cls`` of every field of a packed
+        ``P = (I, F, B)`` (:func:`openimp.system.pack`) as views.
 
-        def codegen(context: Any, builder: Any, sig: Any, args: Any) -> Any:
-            hty = sig.args[1]
-            H = make_array(hty)(context, builder, value=args[1])
-            k = context.cast(builder, args[2], sig.args[2], types.intp)
-            base = builder.mul(k, context.get_constant(types.intp, HEAD))
+        ``layout`` gives per field its buffer (0, 1, 2) and number of dimensions;
+        offsets and dimensions are read from the header at the start of ``I``.
+        Emitted straight into the kernel: no function of its own, no inlining
+        pass (a kernel that unpacked its fields through an inlined function paid
+        seconds of compile time for it).
+        """
 
-            def head(i: int) -> Any:
-                idx = builder.add(base, context.get_constant(types.intp, i))
-                return builder.load(cgutils.gep_inbounds(builder, H.data, idx))
-
-            vargs = [args[0], head(0), *[head(1 + i) for i in range(rty.ndim)]]
-            vsig = rty(sig.args[0], types.int64, *[types.int64] * rty.ndim)
-            return _view_codegen(rty)(context, builder, vsig, vargs)
-
-        return codegen
-
-    def _field_typer(ndim: int) -> Callable[..., Any]:
-        def typer(typingctx: Any, buf: Any, H: Any, k: Any) -> Any:
-            rty = _view_type(buf, ndim)
-            if rty is None or not isinstance(H, types.Array) or H.dtype != types.int64:
+        def typer(typingctx: Any, P: Any) -> Any:
+            if not isinstance(P, types.BaseTuple) or len(P) != 3:
                 return None
-            return rty(buf, H, k), _field_codegen(rty)
+            fields = [_view_type(P[b], nd) for b, nd in layout]
+            if any(f is None for f in fields):
+                return None
+            rty = types.NamedTuple(fields, cls)
 
-        typer.__name__ = f"field{ndim}"
-        return typer
+            def codegen(context: Any, builder: Any, sig: Any, args: Any) -> Any:
+                pty = sig.args[0]
+                bufs = [builder.extract_value(args[0], i) for i in range(3)]
+                H = make_array(pty[0])(context, builder, value=bufs[0])
 
-    #: ``field1(buf, H, k)`` .. ``field4``: field k of a packed buffer as a 1- to 4-d view,
-    #: its offset and dimensions read from the header ``H`` (HEAD int64 entries per
-    #: field).  Emitted straight into the caller (no function of its own): the view
-    #: takes the caller's reference-counting mode, and a kernel that unpacks dozens of
-    #: fields costs no inlining passes.
-    field1: Callable[..., Any] = intrinsic(_field_typer(1))
-    field2: Callable[..., Any] = intrinsic(_field_typer(2))
-    field3: Callable[..., Any] = intrinsic(_field_typer(3))
-    field4: Callable[..., Any] = intrinsic(_field_typer(4))
+                def head(i: int) -> Any:
+                    ptr = cgutils.gep_inbounds(builder, H.data,
+                                               context.get_constant(types.intp, i))
+                    return builder.load(ptr)
+
+                values = []
+                for k, ((b, nd), fty) in enumerate(zip(layout, fields, strict=True)):
+                    off = head(HEAD * k)
+                    shape = [head(HEAD * k + 1 + i) for i in range(nd)]
+                    values.append(_make_view(context, builder, fty, pty[b], bufs[b], off,
+                                             shape))
+                tup = context.make_tuple(builder, rty, values)
+                return impl_ret_borrowed(context, builder, rty, tup)
+
+            return rty(P), codegen
+
+        return intrinsic(typer)  # type: ignore[no-any-return]
 else:
     view1 = view2 = view3 = view4 = _view_py
 
-    def field1(buf: Any, H: Any, k: int) -> Any:
-        """Field k of a packed buffer as a 1-d view (plain Python)."""
-        return _field_py(buf, H, k, 1)
+    def packed_views(layout: tuple[tuple[int, int], ...], cls: type) -> Callable[..., Any]:
+        """``unpack(P)``: the named tuple ``cls`` of the fields of ``P`` (plain Python)."""
 
-    def field2(buf: Any, H: Any, k: int) -> Any:
-        """Field k of a packed buffer as a 2-d view (plain Python)."""
-        return _field_py(buf, H, k, 2)
+        def unpack(P: Any) -> Any:
+            H = P[0]
+            out = []
+            for k, (b, nd) in enumerate(layout):
+                o = int(H[HEAD * k])
+                dims = (int(d) for d in H[HEAD * k + 1:HEAD * k + 1 + nd])
+                out.append(_view_py(P[b], o, *dims))
+            return cls(*out)
 
-    def field3(buf: Any, H: Any, k: int) -> Any:
-        """Field k of a packed buffer as a 3-d view (plain Python)."""
-        return _field_py(buf, H, k, 3)
-
-    def field4(buf: Any, H: Any, k: int) -> Any:
-        """Field k of a packed buffer as a 4-d view (plain Python)."""
-        return _field_py(buf, H, k, 4)
+        return unpack

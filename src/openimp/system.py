@@ -37,7 +37,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from openimp import topology as _topology
-from openimp._jit import HEAD, field1, field2, field3, field4, njit
+from openimp._jit import HEAD, packed_views
 from openimp.errors import InputError
 from openimp.joints import MAXV, conformity
 from openimp.joints.codes import CLOSED_FORM
@@ -222,81 +222,16 @@ def views(table: tuple[Field, ...], P: tuple[np.ndarray, ...]) -> list[np.ndarra
     return out
 
 
-@njit(inline="always")
-def model_views(KP: tuple) -> Any:
-    """The :data:`MODEL_FIELDS` of a packed model ``KP = (I, F, B)`` as named views.
-
-    Inlined (numba IR) into each kernel; every view is emitted in place by a
-    field intrinsic (:func:`openimp._jit.field1`), so it takes the kernel's
-    reference-counting mode and LLVM drops the ones the kernel does not
-    read.  One line per field, in the order of :data:`MODEL_FIELDS` (a test
-    checks every field against :func:`views`).
-    """
-    I, F, _ = KP
-    return KModel(
-        field1(I, I, 0),  # jcode
-        field1(I, I, 1),  # jnv
-        field1(I, I, 2),  # jq0
-        field1(I, I, 3),  # jc0
-        field1(I, I, 4),  # jb1
-        field1(I, I, 5),  # jb2
-        field3(F, I, 6),  # S1
-        field3(F, I, 7),  # S2
-        field3(F, I, 8),  # S1inv
-        field3(F, I, 9),  # S2inv
-        field1(F, I, 10),  # const
-        field1(I, I, 11),  # order
-        field1(I, I, 12),  # pj
-        field1(I, I, 13),  # pb
-        field1(I, I, 14),  # psign
-        field3(F, I, 15),  # Tref
-        field1(I, I, 16),  # chord
-        field2(I, I, 17),  # L
-        field2(I, I, 18),  # P
-        field1(I, I, 19),  # er
-        field1(I, I, 20),  # vjoint
-        field1(I, I, 21),  # ptbody
-        field2(F, I, 22),  # ptlocal
-        field1(I, I, 23),  # gen
-    )
+def _layout_of(table: tuple[Field, ...]) -> tuple[tuple[int, int], ...]:
+    return tuple((_BUFFER[f.kind], len(f.shape)) for f in table)
 
 
-@njit(inline="always")
-def data_views(DP: tuple) -> Any:
-    """The :data:`DATA_FIELDS` of packed data ``DP = (I, F, B)`` as named views
-    (see :func:`model_views`)."""
-    I, F, B = DP
-    return KWork(
-        field3(F, I, 0),  # T0
-        field3(F, I, 1),  # A
-        field3(F, I, 2),  # Phi
-        field3(F, I, 3),  # Qj
-        field4(F, I, 4),  # dQj
-        field3(F, I, 5),  # M4
-        field2(F, I, 6),  # Dh
-        field3(F, I, 7),  # Bh
-        field2(F, I, 8),  # J
-        field1(F, I, 9),  # E
-        field2(F, I, 10),  # T
-        field1(I, I, 11),  # prow
-        field1(I, I, 12),  # pcol
-        field1(F, I, 13),  # pinv
-        field2(F, I, 14),  # mult
-        field1(B, I, 15),  # used
-        field1(F, I, 16),  # dq
-        field1(F, I, 17),  # rhs
-        field2(F, I, 18),  # V
-        field2(F, I, 19),  # Ab
-        field2(F, I, 20),  # Kh
-        field1(F, I, 21),  # qlast
-        field1(F, I, 22),  # qpred
-        field1(B, I, 23),  # isdriver
-        field1(I, I, 24),  # loop
-        field2(F, I, 25),  # G
-        field2(F, I, 26),  # Gp
-        field1(F, I, 27),  # dprev
-        field1(F, I, 28),  # dnew
-    )
+#: ``model_views(KP)``: the :data:`MODEL_FIELDS` of a packed model as named views,
+#: inside a kernel (:func:`openimp._jit.packed_views`: emitted in place, the views take
+#: the kernel's reference-counting mode and LLVM drops the ones it does not read)
+model_views = packed_views(_layout_of(MODEL_FIELDS), KModel)
+#: ``data_views(DP)``: the :data:`DATA_FIELDS` of packed data as named views
+data_views = packed_views(_layout_of(DATA_FIELDS), KWork)
 
 
 # =============================================================================
