@@ -30,7 +30,7 @@ from __future__ import annotations
 import math
 from collections import namedtuple
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any, NamedTuple
 
@@ -352,6 +352,9 @@ class System:
     KP: tuple[np.ndarray, np.ndarray, np.ndarray]
     K: Any
     topology: _topology.Topology
+    #: results derived from the model alone and kept for the next call (the driver
+    #: check of a sweep from the same start, for one): never part of the model itself
+    memo: dict[Any, Any] = field(default_factory=dict, compare=False, repr=False)
 
     # ------------------------------------------------------------- sizes/names
     @property

@@ -192,6 +192,8 @@ def candidates(rank: np.ndarray, quality: np.ndarray, rank_ref: int, quality_ref
     steps decides that, the rest is done for the few low steps only.
     """
     n = quality.shape[0]
+    if n and rank.min() >= rank_ref and quality.min() >= DIP * quality_ref:
+        return None, np.zeros(0, bool)  # the ordinary sweep
     low = rank < rank_ref
     dip = np.zeros(n, bool)
     small = np.flatnonzero(quality[1:-1] < DIP * quality_ref) + 1 if n >= 3 else []

@@ -503,7 +503,15 @@ def sweep(
     S.sgc[dcols] = True
     # one scratch for the driver check and the sweep
     data = make_data(system, len(dcols))
-    held, rank0, quality0 = check_drivers(system, S, dcols, pivot_tol, hold_free, data)
+    # the same drivers from the same start were checked before: a study's repeated sweeps
+    key = ("drivers", dcols.tobytes(), S.q.tobytes(), float(pivot_tol), bool(hold_free))
+    checked = system.memo.get(key)
+    if checked is None:
+        checked = system.memo[key] = check_drivers(system, S, dcols, pivot_tol, hold_free,
+                                                   data)
+        if len(system.memo) > 64:  # a bounded memory of starts
+            system.memo.pop(next(iter(system.memo)))
+    held, rank0, quality0 = checked
     # free coordinates that are held (hold_free, or passive) are specified at
     # their values, as IMP holds FGCs in kinematic mode; this keeps the
     # pivoting from trading one free coordinate for another between steps
@@ -717,6 +725,8 @@ class _Run:
             found += [c[:5] for c in self.crossed if c[5] == k0]
             found.sort(key=lambda f: f[2])
             found = [f for f in found if f[0] not in seen]
+            if not found:
+                continue
             seen.update(f[0] for f in found)
             names = [self.system.var_names[c] for c in cols]
             scale = np.array([self.system.var_scale[c] for c in cols])
