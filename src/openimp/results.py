@@ -448,6 +448,21 @@ class Trajectory:
             cols[name] = np.array([r.drivers.get(name, math.nan) for r in rows])
         return cols
 
+    def internal(self) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+        """The stored joint variables, velocities and accelerations (steps x nq each,
+        internal units; None without rates), for analyses that continue from them."""
+        return self._q, self._qd, self._qdd
+
+    @property
+    def specified(self) -> np.ndarray:
+        """(nq,) bool: the specified coordinates (driven or held)."""
+        return self._sgc.copy()
+
+    @property
+    def free(self) -> np.ndarray:
+        """(steps, nq) bool: the free generalized coordinates at every step."""
+        return self._fgc
+
     # ----------------------------------------------------------------- table
     def to_table(self) -> dict[str, Any]:
         """Columns: step (and time), joint variables (and their rates), quality, mobility."""
@@ -472,6 +487,157 @@ class Trajectory:
         gc = ", ".join(self.sgc) or "none"
         sing = f", {len(self.singularities)} singular postures" if self.singularities else ""
         return f"Trajectory({self.nsteps} steps{rates}{sing}, {state}; specified: {gc})"
+
+
+# =============================================================================
+# Forces along a motion
+# =============================================================================
+#: reaction components in the order of every reaction array
+REACTION_COMPONENTS = ("Fu", "Fv", "Fw", "Mu", "Mv", "Mw")
+
+
+def nan_apply(Tm: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """y = Tm x over leading axes ((..., 6, 6) by (..., 6)) where an unknown (NaN) entry of
+    x makes unknown exactly the entries of y it contributes to (coefficient not 0)."""
+    unknown = np.isnan(x)
+    y = np.einsum("...ij,...j->...i", Tm, np.where(unknown, 0.0, x))
+    hit = np.einsum("...ij,...j->...i", (np.abs(Tm) > 1e-12).astype(float),
+                    unknown.astype(float)) > 0
+    y[hit] = np.nan
+    return y
+
+
+def _skew(v: np.ndarray) -> np.ndarray:
+    out = np.zeros((*v.shape[:-1], 3, 3))
+    out[..., 0, 1], out[..., 0, 2], out[..., 1, 2] = -v[..., 2], v[..., 1], -v[..., 0]
+    out[..., 1, 0], out[..., 2, 0], out[..., 2, 1] = v[..., 2], -v[..., 1], v[..., 0]
+    return out
+
+
+class Forces:
+    """What a mechanism carries along a motion (book 10-11.14, ch 17), model units.
+
+    ``drive``: the force or torque each generalized coordinate needs at every
+    step (name -> (steps,)); positive when it acts to increase the coordinate.
+    Joint reactions (:meth:`reaction`) are the load of the joint's first body
+    on its second: forces along u, v, w and moments about u, v, w of the joint
+    frame on the first body (``A_h = T_0,h- S_h-,h``), about that frame's
+    origin; a statically indeterminate component is NaN (never a number), see
+    :meth:`determinate`.  ``element_force`` (steps x ne): tension of every
+    spring and damper (positive pulling its ends together), magnitude of every
+    force and torque; ``kinetic``, ``potential`` (steps,): energies (the
+    potential of gravity about the global origin and of the linear springs);
+    ``power``: the power of every load on the mechanism (name -> (steps,)),
+    ``"gravity"``, each element, ``"joint J"`` loads, and ``"drive"`` (the sum
+    of the drive forces times their rates).  ``messages``: what was skipped.
+    """
+
+    def __init__(self, trajectory: Trajectory, drive: dict[str, np.ndarray], R: np.ndarray,
+                 frames: Callable[[int], tuple[np.ndarray, np.ndarray]],
+                 element_force: np.ndarray, element_skipped: np.ndarray,
+                 kinetic: np.ndarray, potential: np.ndarray, power: dict[str, np.ndarray],
+                 messages: list[str], reactions: bool) -> None:
+        self.trajectory = trajectory
+        self.system = trajectory.system
+        self.drive = drive
+        self._R = R
+        self._frames = frames
+        self.element_force = element_force
+        self.element_skipped = element_skipped
+        self.kinetic = kinetic
+        self.potential = potential
+        self.power = power
+        self.messages = messages
+        self.has_reactions = reactions
+
+    @property
+    def nsteps(self) -> int:
+        """Number of steps."""
+        return self.kinetic.shape[0]
+
+    def __len__(self) -> int:
+        return self.nsteps
+
+    def _h(self, joint: str) -> int:
+        if not self.has_reactions:
+            raise InputError("the reactions were not computed (forces(..., reactions=False))")
+        return self.system.joint_index(joint)
+
+    def reaction(self, joint: str, frame: str = "joint") -> np.ndarray:
+        """The load of ``joint``'s first body on its second (steps x 6: forces, then
+        moments), NaN where statically indeterminate.
+
+        ``frame="joint"``: on the axes u, v, w of the joint frame on the first
+        body, moments about its origin; ``"global"``: global axes, moments about
+        the same origin; ``"second"``: on the axes of the joint frame on the
+        second body, moments about that frame's origin (IMP's kinematic-mode
+        listing convention).  A global or second-frame component is NaN when an
+        indeterminate joint-frame component contributes to it.
+        """
+        h = self._h(joint)
+        R = self._R[:, h]
+        if frame == "joint":
+            return R.copy()
+        if frame not in ("global", "second"):
+            raise InputError(f"frame must be 'joint', 'global' or 'second', got {frame!r}")
+        A1, A2 = self._frames(h)
+        n = R.shape[0]
+        Tm = np.zeros((n, 6, 6))
+        R1 = A1[:, :3, :3]
+        Tm[:, :3, :3] = R1
+        Tm[:, 3:, 3:] = R1
+        if frame == "global":
+            return nan_apply(Tm, R)
+        # moment about the second origin: M_o2 = M_o1 + (o1 - o2) x F
+        d = A1[:, :3, 3] - A2[:, :3, 3]
+        Tm[:, 3:, :3] = _skew(d) @ R1
+        R2t = np.swapaxes(A2[:, :3, :3], 1, 2)
+        Tm[:, :3, :] = R2t @ Tm[:, :3, :]
+        Tm[:, 3:, :] = R2t @ Tm[:, 3:, :]
+        return nan_apply(Tm, R)
+
+    def determinate(self, joint: str) -> np.ndarray:
+        """(steps x 6) bool: the components of :meth:`reaction` (joint frame) that the
+        constraints determine (17.18)."""
+        return ~np.isnan(self._R[:, self._h(joint)])
+
+    def element(self, name: str) -> np.ndarray:
+        """Tension (springs, dampers) or magnitude (forces, torques) of an element (steps,);
+        NaN where it was skipped (its two points coincide)."""
+        try:
+            i = self.system.elements.index(name)
+        except ValueError:
+            known = ", ".join(self.system.elements) or "none"
+            raise InputError(f"unknown element {name!r}; elements are {known}") from None
+        out = self.element_force[:, i].copy()
+        out[self.element_skipped[:, i]] = np.nan
+        return out
+
+    def to_table(self) -> dict[str, Any]:
+        """Columns: step (and time), drive forces, the reactions of every joint (joint frame),
+        element forces, energies and powers."""
+        tr = self.trajectory
+        cols: dict[str, Any] = {"step": np.arange(self.nsteps)}
+        if tr.time is not None:
+            cols["time"] = tr.time[:self.nsteps]
+        for n, v in self.drive.items():
+            cols[f"drive {n}"] = v
+        if self.has_reactions:
+            for j in self.system.joints:
+                R = self.reaction(j)
+                for k, c in enumerate(REACTION_COMPONENTS):
+                    cols[f"{j} {c}"] = R[:, k]
+        for e in self.system.elements:
+            cols[e] = self.element(e)
+        cols["kinetic energy"] = self.kinetic
+        cols["potential energy"] = self.potential
+        for n, v in self.power.items():
+            cols[f"power {n}"] = v
+        return cols
+
+    def __repr__(self) -> str:
+        return (f"Forces({self.nsteps} steps; drives: {', '.join(self.drive) or 'none'}; "
+                f"{len(self.system.joints)} joints, {len(self.system.elements)} elements)")
 
 
 # =============================================================================

@@ -36,6 +36,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from openimp import massprops
 from openimp import topology as _topology
 from openimp._jit import HEAD, packed_views
 from openimp.errors import InputError
@@ -128,6 +129,56 @@ DATA_FIELDS: tuple[Field, ...] = (
 )
 
 KWork = namedtuple("KWork", [f.name for f in DATA_FIELDS])  # type: ignore[misc]
+
+#: The dynamic group of the compiled model (book ch 9), internal units: lengths in
+#: internal units, masses as given, so energies are the model's divided by
+#: length_scale^2.  Sizes: nb, nq as above, ne force elements, nlaw load laws.
+DYN_FIELDS: tuple[Field, ...] = (
+    Field("Jb", "f", ("nb", 4, 4), "pseudo-inertia J_b = integral r r^T dm, body frame (9.2, 9.6)"),
+    Field("grav", "f", (3,), "gravity vector g, global axes (9.11)"),
+    Field("qk", "f", ("nq",), "spring rate k_h on every joint variable (9.13)"),
+    Field("qfree", "f", ("nq",), "free position phi_h0 of every joint variable"),
+    Field("qc", "f", ("nq",), "viscous damping c_h of every joint variable (9.14)"),
+    Field("qf", "f", ("nq",), "constant load f_h on every joint variable (9.24)"),
+    Field("qlaw", "i", ("nq", 3), "law slot of the spring, damper, load of every variable, -1"),
+    Field("ekind", "i", ("ne",), "element kind: 0 spring, 1 damper, 2 force, 3 torque"),
+    Field("ept", "i", ("ne", 3), "points of an element (springs: ends; force: at, from, to;"
+          " torque: from, to), -1 unused"),
+    Field("ebody", "i", ("ne",), "body a force or torque acts on"),
+    Field("evalue", "f", ("ne",), "rate, coefficient or magnitude of an element"),
+    Field("efree", "f", ("ne",), "free length of a spring"),
+    Field("edir", "f", ("ne", 3), "fixed global direction of a force or torque (unit)"),
+    Field("elaw", "i", ("ne",), "law slot of an element, -1 for a linear one"),
+)
+
+KDyn = namedtuple("KDyn", [f.name for f in DYN_FIELDS])  # type: ignore[misc]
+
+#: The scratch of one force or equations-of-motion evaluation (internal units).  Sizes:
+#: nb, nq, ne, m as above, nf generalized coordinates, nlaw load laws.
+DYN_DATA_FIELDS: tuple[Field, ...] = (
+    Field("Gb", "f", ("nb", 4, 4), "T_0b J_b T_0b^T: pseudo-inertia in global axes (9.7)"),
+    Field("Fin", "f", ("nb", 6), "inertia wrench (f, n about the origin) of every body (10.8)"),
+    Field("Fext", "f", ("nb", 6), "applied wrench of gravity and elements on every body"),
+    Field("Fb", "f", ("nb", 6), "Fin - Fext: what the joints must supply to every body"),
+    Field("fq", "f", ("nq",), "load on every joint variable: springs, dampers, forces"),
+    Field("W", "f", ("nb", "nf", 6), "body operators W_{b,j} of the generalized coordinates"),
+    Field("Wd", "f", ("nb", 6), "W_{b,Delta} of one fictitious displacement (17.21)"),
+    Field("phid", "f", ("nq",), "phi'_{h,Delta} of one fictitious displacement (17.17)"),
+    Field("e", "f", ("m",), "right-hand side C'_Delta of the fictitious column (17.12)"),
+    Field("cols", "i", ("nf",), "the generalized coordinates (columns of W)"),
+    Field("elen", "f", ("ne",), "length between the points of every element"),
+    Field("erate", "f", ("ne",), "its rate of change"),
+    Field("eforce", "f", ("ne",), "tension of a spring or damper, magnitude of a load"),
+    Field("epower", "f", ("ne",), "power of every element on the mechanism"),
+    Field("eskip", "b", ("ne",), "element skipped: its two points coincide"),
+    Field("law", "f", ("nlaw",), "values of the load laws at this step"),
+)
+
+KDynData = namedtuple("KDynData", [f.name for f in DYN_DATA_FIELDS])  # type: ignore[misc]
+
+#: element kinds of DYN_FIELDS.ekind
+SPRING, DAMPER, FORCE, TORQUE = 0, 1, 2, 3
+ELEMENT_KINDS = ("spring", "damper", "force", "torque")
 
 _DTYPES = {"i": np.int64, "f": np.float64, "b": np.bool_}
 _BUFFER = {"i": 0, "f": 1, "b": 2}
@@ -232,6 +283,10 @@ def _layout_of(table: tuple[Field, ...]) -> tuple[tuple[int, int], ...]:
 model_views = packed_views(_layout_of(MODEL_FIELDS), KModel)
 #: ``data_views(DP)``: the :data:`DATA_FIELDS` of packed data as named views
 data_views = packed_views(_layout_of(DATA_FIELDS), KWork)
+#: ``dyn_views(YP)``: the :data:`DYN_FIELDS` of a packed model as named views
+dyn_views = packed_views(_layout_of(DYN_FIELDS), KDyn)
+#: ``dyn_data_views(ZP)``: the :data:`DYN_DATA_FIELDS` of packed scratch as named views
+dyn_data_views = packed_views(_layout_of(DYN_DATA_FIELDS), KDynData)
 
 
 # =============================================================================
@@ -315,6 +370,26 @@ def make_data(system: System, nd: int = 0) -> Data:
     return Data(allocate(DATA_FIELDS, data_sizes(system, nd)))
 
 
+class DynData:
+    """The scratch of force and equations-of-motion evaluations
+    (:data:`DYN_DATA_FIELDS`): ``ZP`` packed, ``v`` as named numpy views."""
+
+    def __init__(self, ZP: tuple[np.ndarray, np.ndarray, np.ndarray]) -> None:
+        self.ZP = ZP
+
+    @cached_property
+    def v(self) -> Any:
+        """The fields as named numpy views of ``ZP``."""
+        return KDynData(*views(DYN_DATA_FIELDS, self.ZP))
+
+
+def make_dyn_data(system: System, nf: int) -> DynData:
+    """The dynamic scratch of ``system`` for ``nf`` generalized coordinates."""
+    sizes = {"nb": len(system.bodies), "nq": system.nq, "ne": len(system.elements),
+             "m": system.nrows, "nf": nf, "nlaw": max(len(system.laws), 1)}
+    return DynData(allocate(DYN_DATA_FIELDS, sizes))
+
+
 # =============================================================================
 # The compiled model
 # =============================================================================
@@ -336,6 +411,14 @@ class System:
     KP: the packed kinematic group (:data:`MODEL_FIELDS`), read-only buffers.
     K: the same arrays as named numpy views.
     topology: the :class:`~openimp.topology.Topology`.
+    YP, Y: the packed dynamic group (:data:`DYN_FIELDS`) and its views.
+    elements: names of the springs, dampers, forces and torques (index order).
+    laws: the load laws, one per slot of ``qlaw``/``elaw``: (what, name, callable,
+        variable index or -1) with what ``"spring"``, ``"damper"``, ``"force"``,
+        ``"torque"``, ``"joint spring"``, ``"joint damper"`` or ``"joint force"``.
+    units: the model's :class:`~openimp.massprops.Units`.
+    has_mass: whether any moving body has mass data.
+    warnings: what the compile noticed and went on with (implausible inertia ...).
     """
 
     name: str
@@ -352,6 +435,13 @@ class System:
     KP: tuple[np.ndarray, np.ndarray, np.ndarray]
     K: Any
     topology: _topology.Topology
+    YP: tuple[np.ndarray, np.ndarray, np.ndarray] = field(default=None, repr=False)  # type: ignore[assignment]
+    Y: Any = field(default=None, repr=False)
+    elements: tuple[str, ...] = ()
+    laws: tuple[tuple[str, str, Any, int], ...] = ()
+    units: Any = None
+    has_mass: bool = False
+    warnings: tuple[str, ...] = ()
     #: results derived from the model alone and kept for the next call (the driver
     #: check of a sweep from the same start, for one): never part of the model itself
     memo: dict[Any, Any] = field(default_factory=dict, compare=False, repr=False)
@@ -389,6 +479,16 @@ class System:
         v = np.array([self.length_scale if k == "length" else 1.0 for k in self.var_kinds])
         v.setflags(write=False)
         return v
+
+    @cached_property
+    def var_lookup(self) -> dict[str, int]:
+        """Column of every joint variable by ``"joint.var"``, and of every joint of one
+        variable by the joint's name (the quick path of :meth:`var_index`)."""
+        out = {n: c for c, n in enumerate(self.var_names)}
+        for h, j in enumerate(self.joints):
+            if int(self.K.jnv[h]) == 1:
+                out[j] = int(self.K.jq0[h])
+        return out
 
     def body_index(self, body: str) -> int:
         """Index of a body by name (InputError if unknown)."""
@@ -593,6 +693,9 @@ def compile_model(model: Any) -> System:
     q0a = np.array(q0, dtype=float)
     q0a.setflags(write=False)
     sign0.setflags(write=False)
+    dyn, elements, laws, warnings = _dynamic_group(model, bodies, bidx, g, Tb, Ls, q0a,
+                                                   var_kinds, list(model.joints))
+    YP = read_only(pack(DYN_FIELDS, dyn))
     return System(
         name=model.name,
         bodies=tuple(bodies),
@@ -608,4 +711,95 @@ def compile_model(model: Any) -> System:
         KP=KP,
         K=KModel(*views(MODEL_FIELDS, KP)),
         topology=topo,
+        YP=YP,
+        Y=KDyn(*views(DYN_FIELDS, YP)),
+        elements=elements,
+        laws=laws,
+        units=model.units,
+        has_mass=bool(np.any(dyn["Jb"][[b for b in range(len(bodies)) if b != g]] != 0.0)),
+        warnings=tuple(warnings),
     )
+
+
+def _dynamic_group(
+    model: Any, bodies: list[str], bidx: dict[str, int], ground: int, Tb: np.ndarray,
+    Ls: float, q0: np.ndarray, var_kinds: list[str], jnames: list[str],
+) -> tuple[dict[str, np.ndarray], tuple[str, ...], tuple[tuple[str, str, Any, int], ...],
+           list[str]]:
+    """The arrays of :data:`DYN_FIELDS` from the model's mass, gravity and load data.
+
+    Internal units (see :data:`DYN_FIELDS`): a length l becomes l / Ls, a force
+    f / Ls, a moment or energy m / Ls^2; a rotational rate k / Ls^2, a
+    translational one stays.  Mass on the ground is dropped.
+    """
+    nb, nq = len(bodies), len(q0)
+    warnings: list[str] = []
+    Jb = np.zeros((nb, 4, 4))
+    scale = np.diag([1.0 / Ls, 1.0 / Ls, 1.0 / Ls, 1.0])
+    for name, J in model.masses.items():
+        if name not in bidx or bidx[name] == ground:
+            continue
+        b = bidx[name]
+        Jg = scale @ J @ scale  # global axes, internal lengths
+        Jb[b] = massprops.transform(Jg, _rigid_inverse(Tb[b]))
+        warnings += [f"mass of body {name!r}: {w}" for w in massprops.check_inertia(J)]
+    grav = np.zeros(3) if model.gravity is None else np.asarray(model.gravity, float) / Ls
+    qk, qfree, qc, qf = (np.zeros(nq) for _ in range(4))
+    qlaw = -np.ones((nq, 3), np.int64)
+    laws: list[tuple[str, str, Any, int]] = []
+    jq0 = {}
+    a = 0
+    for name in jnames:
+        jq0[name] = a
+        a += model.joints[name].kind.nvar
+    for (jname, k), jl in model.joint_loads.items():
+        if jname not in jq0:
+            continue
+        c = jq0[jname] + k
+        rot = var_kinds[c] == "angle"
+        e2 = 1.0 / Ls**2  # energy and moment scale
+        s_len = 1.0 if rot else 1.0 / Ls  # position scale
+        # rate: energy / position^2; damping: energy / (position * rate); load: energy / position
+        qk[c] = jl.rate * e2 / s_len**2
+        qc[c] = jl.damping * e2 / s_len**2
+        qf[c] = jl.force * e2 / s_len
+        qfree[c] = q0[c] if jl.free is None else jl.free * s_len
+        for slot, (what, law) in enumerate((("joint spring", jl.spring_law),
+                                            ("joint damper", jl.damper_law),
+                                            ("joint force", jl.force_law))):
+            if law is not None:
+                qlaw[c, slot] = len(laws)
+                laws.append((what, jname, law, c))
+    elems = list(model.elements.values())
+    ne = len(elems)
+    pidx = {p: i for i, p in enumerate(model.points)}
+    ekind = np.zeros(ne, np.int64)
+    ept = -np.ones((ne, 3), np.int64)
+    ebody = -np.ones(ne, np.int64)
+    evalue, efree = np.zeros(ne), np.zeros(ne)
+    edir = np.zeros((ne, 3))
+    elaw = -np.ones(ne, np.int64)
+    for i, e in enumerate(elems):
+        ekind[i] = ELEMENT_KINDS.index(e.kind)
+        for k, p in enumerate(e.points):
+            ept[i, k] = pidx[p]
+        if e.kind in ("spring", "damper"):
+            evalue[i] = e.value
+            if e.kind == "spring":
+                ends = [model.points[p].xyz for p in e.points]
+                free = float(np.linalg.norm(ends[0] - ends[1])) if e.free is None else e.free
+                efree[i] = free / Ls
+        elif e.kind == "force":
+            ebody[i] = bidx[model.points[e.points[0]].body]
+            evalue[i] = e.value / Ls
+        else:
+            ebody[i] = bidx[e.body]
+            evalue[i] = e.value / Ls**2
+        if e.direction is not None:
+            edir[i] = e.direction
+        if e.law is not None:
+            elaw[i] = len(laws)
+            laws.append((e.kind, e.name, e.law, -1))
+    dyn = dict(Jb=Jb, grav=grav, qk=qk, qfree=qfree, qc=qc, qf=qf, qlaw=qlaw, ekind=ekind,
+               ept=ept, ebody=ebody, evalue=evalue, efree=efree, edir=edir, elaw=elaw)
+    return dyn, tuple(e.name for e in elems), tuple(laws), warnings

@@ -328,8 +328,11 @@ def _driver_columns(
     cols: list[int] = []
     vals: list[np.ndarray] = []
     nsteps = None
+    lookup = system.var_lookup
     for key, v in drivers.items():
-        c = system.var_index(key)
+        c = lookup.get(key) if isinstance(key, str) else None
+        if c is None:
+            c = system.var_index(key)
         if system.var_kinds[c] == "er":
             raise InputError(
                 f"driver {key!r}: an Euler-Rodrigues parameter cannot be driven; "
@@ -338,12 +341,14 @@ def _driver_columns(
         if c in cols:
             raise InputError(f"driver {key!r} is given twice")
         try:
-            a = np.atleast_1d(np.asarray(v, dtype=float))
+            a = np.asarray(v, dtype=float)
         except (TypeError, ValueError):
             raise InputError(
                 f"driver {key!r}: its values must be numbers, got {v!r:.60}"
             ) from None
-        if a.ndim != 1 or a.size == 0 or not np.all(np.isfinite(a)):
+        if a.ndim == 0:
+            a = a.reshape(1)
+        if a.ndim != 1 or a.size == 0 or not np.isfinite(a).all():
             raise InputError(f"driver {key!r}: give a non-empty sequence of finite numbers")
         if nsteps is None:
             nsteps = a.size
@@ -353,8 +358,13 @@ def _driver_columns(
                 "give every driver the same number of steps"
             )
         cols.append(c)
-        vals.append(a / system.var_scale[c])
-    return np.array(cols, np.int64), np.stack(vals, axis=1)
+        vals.append(a)
+    out = np.empty((len(vals[0]), len(vals)))
+    scale = system.var_scale
+    for k, (c, a) in enumerate(zip(cols, vals, strict=True)):
+        out[:, k] = a
+        out[:, k] /= scale[c]
+    return np.array(cols, np.int64), out
 
 
 def _rate_values(
@@ -716,6 +726,11 @@ class _Run:
     def singularities(self, done: int) -> list[Singularity]:
         """The singular postures of the solved steps, segment by segment."""
         out: list[Singularity] = []
+        if len(self.segments) == 1 and not self.limits and not self.crossed:
+            r, qu = self.out.rank[:done], self.out.quality[:done]
+            if done == 0 or (r.min() >= max(self.rank0, r.max()) and qu.min()
+                             >= sing.DIP * max(self.quality0, qu.max())):
+                return out  # the ordinary sweep: no step low (as _found decides)
         bounds = [s[0] for s in self.segments] + [done]
         seen: set[int] = set()
         for (k0, cols, sgc), k1 in zip(self.segments, bounds[1:]):

@@ -1,0 +1,22 @@
+"""Dynamic mode (book ch 9-14, 17): what a mechanism carries.
+
+The stages, compiled functions over (System, Data, DynData, State) that the
+force analysis of this package and the later analyses (equilibrium,
+linearisation, time response) call:
+
+* :mod:`~openimp.dynamics.inertia`: global pseudo-inertias (9.7), inertia
+  wrenches (10.8), the mass matrix (10.15), the kinetic energy;
+* :mod:`~openimp.dynamics.loads`: gravity, joint and point springs and
+  dampers, applied forces and torques (9.5-9.11, 10.12, 10.13);
+* :mod:`~openimp.dynamics.inverse`: driving forces (11.14) and joint
+  reactions by fictitious displacements (ch 17) along a motion;
+* :mod:`~openimp.dynamics.eom`: the equations of motion at one state,
+  M(psi) psi'' + c(psi, psi') = Q(psi, psi', t), with the FGC/SGC partition;
+* :mod:`~openimp.dynamics.laws`: load laws (callables) evaluated per step;
+* :mod:`~openimp.dynamics.analysis`: :func:`forces`, the Python entry.
+"""
+
+from openimp.dynamics.analysis import forces
+from openimp.dynamics.laws import LoadState
+
+__all__ = ["LoadState", "forces"]

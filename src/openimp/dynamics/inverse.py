@@ -1,0 +1,256 @@
+"""Driving forces and joint reactions of a prescribed motion (book 11.14, ch 17).
+
+Along a motion in which every freedom is specified (a kinematic sweep, or a
+time motion of the SGCs), each step is evaluated from its stored joint
+variables and rates:
+
+* :func:`evaluate`: the posture stages (tree pass, Jacobian and its
+  elimination, velocities, drift, accelerations; ch 5-8), the inertia wrench
+  of every body (10.8) and the applied loads (ch 9), z.Fb = inertia - applied;
+* :func:`drive_forces`: the force or torque each generalized coordinate
+  needs, tau_j = sum_b W_{b,j} . Fb_b - sum_h phi'_{h,j} fq_h (10.15 solved for
+  the SGC rows, 11.14);
+* :func:`reactions`: the six components of the load of the first body of
+  every joint on its second by fictitious displacements (17.1-17.20), each
+  column C'_Delta (17.12) replayed through the kept elimination (17.17) and
+  tested for compatibility (17.18): an incompatible component is statically
+  indeterminate and is returned as NaN, never as a number;
+* :func:`forces_steps`: the step loop, compiled.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from openimp._jit import njit
+from openimp.dynamics.inertia import body_inertias, inertia_wrenches
+from openimp.dynamics.loads import applied_loads
+from openimp.kinematics.elimination import derivatives, eliminate, jacobian, replay
+from openimp.kinematics.position import position
+from openimp.kinematics.rates import accelerations, body_operators, drift, velocity
+from openimp.system import data_views, dyn_data_views, model_views
+
+
+class StepRows(NamedTuple):
+    """The stored motion: Q, QD, QDD (steps x nq, internal units), generalized
+    (steps x nq bool: the columns that are generalized coordinates at each step),
+    laws (steps x nlaw: the load-law values)."""
+
+    Q: np.ndarray
+    QD: np.ndarray
+    QDD: np.ndarray
+    generalized: np.ndarray
+    laws: np.ndarray
+
+
+class ForceOut(NamedTuple):
+    """Per step (internal units): drive (nq: the force of every generalized coordinate,
+    NaN elsewhere), R (nj x 6: u v w forces, u v w moments of the first body on the
+    second, in the joint frame on the first body, about its origin; NaN where
+    indeterminate), energy (2: kinetic, potential), gpower (power of gravity),
+    qpower (nq: power of the joint loads), the element arrays (ne each: length,
+    rate, tension or magnitude, power, skipped) and rank."""
+
+    drive: np.ndarray
+    R: np.ndarray
+    energy: np.ndarray
+    gpower: np.ndarray
+    qpower: np.ndarray
+    elen: np.ndarray
+    erate: np.ndarray
+    eforce: np.ndarray
+    epower: np.ndarray
+    eskip: np.ndarray
+    rank: np.ndarray
+
+
+@njit(nrt=False)
+def evaluate(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | None,
+             ptol: float, L: np.ndarray, P: np.ndarray) -> tuple[int, float, float, float]:
+    """All stages of one state S (q, qd, qdd of every joint variable; sgc) up to z.Fb.
+
+    Returns (rank of the elimination, kinetic energy, potential energy, power
+    of gravity).  S.q is not changed (no Newton step: the posture is the
+    solved one).  L (3 x 4), P (6 x 3): scratch.
+    """
+    z = dyn_data_views(ZP)
+    K = model_views(KP)
+    position(KP, DP, S, gen, 1)
+    jacobian(KP, DP, S, gen)
+    rank = eliminate(DP, S.sgc, ptol)[0]
+    velocity(KP, DP, S)
+    drift(KP, DP, S, gen)
+    accelerations(KP, DP, S)
+    body_inertias(KP, DP, YP, ZP)
+    ke = inertia_wrenches(KP, DP, ZP, L)
+    pe, gp = applied_loads(KP, DP, YP, ZP, S, P)
+    for b in range(K.order.shape[0]):
+        for i in range(6):
+            z.Fb[b, i] = z.Fin[b, i] - z.Fext[b, i]
+    return rank, ke, pe, gp
+
+
+@njit(nrt=False)
+def drive_forces(KP: tuple, DP: tuple, ZP: tuple, rank: int, nf: int, out: np.ndarray
+                 ) -> None:
+    """tau_j = sum_b W_{b,j} . Fb_b - sum_h phi'_{h,j} fq_h for the first nf columns of
+    z.cols (11.14), into out[z.cols[j]] (out: (nq,)).
+
+    Needs :func:`evaluate`; computes phi' (7.14, into d.G) and W (7.20, into z.W).
+    """
+    d = data_views(DP)
+    z = dyn_data_views(ZP)
+    cols = z.cols[:nf]
+    G = d.G[:, :nf]
+    W = z.W[:, :nf]
+    derivatives(DP, rank, cols, G)
+    body_operators(KP, DP, G, W)
+    for j in range(nf):
+        t = 0.0
+        for b in range(W.shape[0]):
+            for i in range(6):
+                t += W[b, j, i] * z.Fb[b, i]
+        for a in range(G.shape[0]):
+            t -= G[a, j] * z.fq[a]
+        out[cols[j]] = t
+
+
+@njit(nrt=False)
+def reactions(KP: tuple, DP: tuple, ZP: tuple, rank: int, itol: float, R: np.ndarray
+              ) -> None:
+    """The load of the first body of every joint on its second (17.20), R: (nj, 6).
+
+    Component k of joint Delta: a fictitious displacement D_Delta (17.2-17.7,
+    17.9) along (k < 3) or about (k >= 3) axis u, v, w of the joint frame on
+    the first body A_Delta = T_{0,Delta-} S_{Delta-,Delta}, about its origin.
+    C'_Delta = -L(i, Delta) D_Delta (17.12, zero on the Euler-Rodrigues rows)
+    goes through the kept elimination (17.17); what the dependent rows leave
+    (17.18) above ``itol`` makes the component statically indeterminate: NaN.
+    Otherwise phi'_Delta (17.16) and W_{b,Delta} = P(b,Delta) D_Delta +
+    sum_h P(b,h) D_h phi'_{h,Delta} (17.21 with the direct term, digest D1)
+    give F = sum_b W_{b,Delta} . Fb_b - sum_h phi'_{h,Delta} fq_h.  Needs
+    :func:`evaluate`.
+    """
+    K = model_views(KP)
+    d = data_views(DP)
+    z = dyn_data_views(ZP)
+    e = z.e
+    m = e.shape[0]
+    used = d.used
+    for r in range(m):
+        used[r] = False
+    for k in range(rank):
+        used[d.prow[k]] = True
+    nl = K.L.shape[0]
+    for h in range(K.jcode.shape[0]):
+        A = d.A[h]
+        for comp in range(6):
+            ax = comp % 3
+            # the screw of D_Delta: (axis, 0) for a force, (o x axis, axis) for a moment
+            sv0 = A[0, ax]
+            sv1 = A[1, ax]
+            sv2 = A[2, ax]
+            if comp < 3:
+                Dv0, Dv1, Dv2, Dw0, Dw1, Dw2 = sv0, sv1, sv2, 0.0, 0.0, 0.0
+            else:
+                ox, oy, oz = A[0, 3], A[1, 3], A[2, 3]
+                Dv0 = oy * sv2 - oz * sv1
+                Dv1 = oz * sv0 - ox * sv2
+                Dv2 = ox * sv1 - oy * sv0
+                Dw0, Dw1, Dw2 = sv0, sv1, sv2
+            for r in range(m):
+                e[r] = 0.0
+            for i in range(nl):
+                lih = K.L[i, h]
+                if lih == 0:
+                    continue
+                r0 = 6 * i
+                e[r0] = -lih * Dv0
+                e[r0 + 1] = -lih * Dv1
+                e[r0 + 2] = -lih * Dv2
+                e[r0 + 3] = -lih * Dw0
+                e[r0 + 4] = -lih * Dw1
+                e[r0 + 5] = -lih * Dw2
+            replay(DP, rank, e)
+            worst = 0.0
+            for r in range(m):
+                if not used[r] and abs(e[r]) > worst:
+                    worst = abs(e[r])
+            if worst > itol:
+                R[h, comp] = np.nan
+                continue
+            for a in range(z.phid.shape[0]):
+                z.phid[a] = 0.0
+            for k in range(rank):
+                z.phid[d.pcol[k]] = e[d.prow[k]]
+            F = 0.0
+            for kb in range(K.order.shape[0]):
+                b = K.order[kb]
+                hp = K.pj[b]
+                if hp < 0:
+                    for i in range(6):
+                        z.Wd[b, i] = 0.0
+                    continue
+                a0 = K.jq0[hp]
+                sg = float(K.psign[b])
+                pb = K.pb[b]
+                for i in range(6):
+                    s = 0.0
+                    for g in range(K.jnv[hp]):
+                        s += d.Dh[a0 + g, i] * z.phid[a0 + g]
+                    z.Wd[b, i] = z.Wd[pb, i] + sg * s
+                if hp == h:
+                    z.Wd[b, 0] += sg * Dv0
+                    z.Wd[b, 1] += sg * Dv1
+                    z.Wd[b, 2] += sg * Dv2
+                    z.Wd[b, 3] += sg * Dw0
+                    z.Wd[b, 4] += sg * Dw1
+                    z.Wd[b, 5] += sg * Dw2
+                for i in range(6):
+                    F += z.Wd[b, i] * z.Fb[b, i]
+            for a in range(z.phid.shape[0]):
+                F -= z.phid[a] * z.fq[a]
+            R[h, comp] = F
+
+
+@njit(nrt=False)
+def forces_steps(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
+                 gen: np.ndarray | None, rows: tuple, ptol: float, itol: float,
+                 want_reactions: bool, out: tuple, L: np.ndarray, P: np.ndarray) -> None:
+    """Driving forces, reactions, element forces and energies at every stored step.
+
+    ``rows``: :class:`StepRows`; ``out``: :class:`ForceOut`; S: scratch state
+    whose sgc marks the specified coordinates of the motion.
+    """
+    z = dyn_data_views(ZP)
+    nq = S.q.shape[0]
+    for s in range(rows.Q.shape[0]):
+        for c in range(nq):
+            S.q[c] = rows.Q[s, c]
+            S.qd[c] = rows.QD[s, c]
+            S.qdd[c] = rows.QDD[s, c]
+        for k in range(rows.laws.shape[1]):
+            z.law[k] = rows.laws[s, k]
+        rank, ke, pe, gp = evaluate(KP, DP, YP, ZP, S, gen, ptol, L, P)
+        out.rank[s] = rank
+        out.energy[s, 0] = ke
+        out.energy[s, 1] = pe
+        out.gpower[s] = gp
+        nf = 0
+        for c in range(nq):
+            out.drive[s, c] = np.nan
+            out.qpower[s, c] = z.fq[c] * S.qd[c]
+            if rows.generalized[s, c]:
+                z.cols[nf] = c
+                nf += 1
+        drive_forces(KP, DP, ZP, rank, nf, out.drive[s])
+        if want_reactions:
+            reactions(KP, DP, ZP, rank, itol, out.R[s])
+        for i in range(z.eforce.shape[0]):
+            out.elen[s, i] = z.elen[i]
+            out.erate[s, i] = z.erate[i]
+            out.eforce[s, i] = z.eforce[i]
+            out.epower[s, i] = z.epower[i]
+            out.eskip[s, i] = z.eskip[i]

@@ -1,0 +1,124 @@
+"""Load laws: the values of springs, dampers and loads given as functions (Python
+callables, IMP VALUE expressions), evaluated per step outside the compiled stages.
+
+A law is called with one :class:`LoadState` and returns a float in model
+units: the tension of a spring or damper (positive pulling the ends
+together), the magnitude of a force or torque, the spring or damping force
+of a joint variable (``rate * (q - free)``, ``c * qd``: positive against an
+increase) or the load on it (positive tending to increase it).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from openimp.errors import InputError
+
+
+class LoadState:
+    """What a load law may read at one step (model units).
+
+    ``t``: the time (the step index for a sweep without times); ``step``;
+    ``x``, ``xd``: the element's own coordinate and its rate (spring or
+    damper: length and its rate; joint element: the joint variable and its
+    rate; force or torque: 0); ``var(key)``, ``var_rate(key)``: any joint
+    variable (``"joint"`` or ``"joint.var"``) and its rate; ``point(name)``:
+    a point's global position.
+    """
+
+    __slots__ = ("_tr", "step", "t", "x", "xd")
+
+    def __init__(self, trajectory: Any, step: int, t: float, x: float, xd: float) -> None:
+        self._tr = trajectory
+        self.step = step
+        self.t = t
+        self.x = x
+        self.xd = xd
+
+    @property
+    def length(self) -> float:
+        """The element's length (springs, dampers): the same as ``x``."""
+        return self.x
+
+    @property
+    def rate(self) -> float:
+        """The rate of the element's coordinate: the same as ``xd``."""
+        return self.xd
+
+    def var(self, key: Any) -> float:
+        """A joint variable at this step (radians or length)."""
+        return float(self._tr.q[self.step, self._tr.system.var_index(key)])
+
+    def var_rate(self, key: Any) -> float:
+        """The rate of a joint variable at this step (0 without rates)."""
+        if not self._tr.has_rates:
+            return 0.0
+        return float(self._tr.qd[self.step, self._tr.system.var_index(key)])
+
+    def point(self, name: str) -> np.ndarray:
+        """Global position (3,) of a point at this step."""
+        return self._tr.point(name)[self.step].copy()
+
+
+def _scale(system: Any, what: str, col: int) -> float:
+    """Factor from a law's model-unit value to internal units (see DYN_FIELDS)."""
+    Ls = system.length_scale
+    if what in ("spring", "damper", "force"):
+        return 1.0 / Ls
+    if what == "torque":
+        return 1.0 / Ls**2
+    return 1.0 / Ls**2 if system.var_kinds[col] == "angle" else 1.0 / Ls
+
+
+def law_values(system: Any, trajectory: Any, times: np.ndarray) -> np.ndarray:
+    """(steps x max(nlaw, 1)) values of every law of ``system`` at every step, internal units.
+
+    A law that raises or returns something that is not a finite number is an
+    input error naming the element and the step.
+    """
+    n = trajectory.nsteps
+    out = np.zeros((n, max(len(system.laws), 1)))
+    if not system.laws:
+        return out
+    rates = trajectory.has_rates
+    model = getattr(system, "elements", ())
+    for slot, (what, name, fn, col) in enumerate(system.laws):
+        if col >= 0:
+            x = trajectory.q[:, col]
+            xd = trajectory.qd[:, col] if rates else np.zeros(n)
+        elif what in ("spring", "damper"):
+            x, xd = _element_kinematics(system, trajectory, model.index(name))
+        else:
+            x = xd = np.zeros(n)
+        f = _scale(system, what, col)
+        label = f"{what} {name!r}" if col < 0 else f"{what} of {system.var_names[col]}"
+        for k in range(n):
+            try:
+                v = float(fn(LoadState(trajectory, k, float(times[k]), float(x[k]),
+                                       float(xd[k]))))
+            except InputError:
+                raise
+            except Exception as exc:  # the user's function: any failure is bad input
+                raise InputError(f"{label}: its law failed at step {k}: "
+                                 f"{type(exc).__name__}: {exc}") from None
+            if not math.isfinite(v):
+                raise InputError(f"{label}: its law gave {v} at step {k}; it must give a "
+                                 "finite number")
+            out[k, slot] = v * f
+    return out
+
+
+def _element_kinematics(system: Any, trajectory: Any, i: int) -> tuple[np.ndarray, np.ndarray]:
+    """Length and its rate (model units, steps each) of spring or damper i."""
+    p1, p2 = (system.points[int(p)] for p in system.Y.ept[i, :2])
+    d = trajectory.point(p1) - trajectory.point(p2)
+    ln = np.linalg.norm(d, axis=1)
+    if not trajectory.has_rates:
+        return ln, np.zeros_like(ln)
+    dv = trajectory.point_velocity(p1) - trajectory.point_velocity(p2)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rate = np.where(ln > 0, np.einsum("ij,ij->i", d, dv) / np.where(ln > 0, ln, 1.0), 0.0)
+    return ln, rate
