@@ -10,16 +10,18 @@ compiled system as in Pinocchio and MuJoCo::
     ...
     system = openimp.compile(m)
     res = openimp.sweep(system, {"A": np.radians(np.arange(361))})
+    f = openimp.forces(res)          # drive torques, joint reactions (with masses, loads)
 
 (``docs/python.md`` goes on to a plot and an animation.)
 """
 
 from typing import Any
 
+from openimp.dynamics import LoadState, forces
 from openimp.errors import AnalysisError, InputError, OpenIMPError
 from openimp.kinematics import BatchResult, sweep, sweep_batch
 from openimp.model import Model
-from openimp.results import Trajectory
+from openimp.results import Forces, Trajectory
 from openimp.system import State, System
 from openimp.system import compile_model as compile
 
@@ -35,6 +37,7 @@ def load(path: str, **options: Any) -> Any:
 
 
 __all__ = [
-    "AnalysisError", "BatchResult", "InputError", "Model", "OpenIMPError", "State", "System",
-    "Trajectory", "__version__", "compile", "load", "sweep", "sweep_batch",
+    "AnalysisError", "BatchResult", "Forces", "InputError", "LoadState", "Model", "OpenIMPError",
+    "State", "System", "Trajectory", "__version__", "compile", "forces", "load", "sweep",
+    "sweep_batch",
 ]
