@@ -1,0 +1,182 @@
+"""The equations of motion at one state (book ch 10), in IMP's generalized coordinates:
+
+    M(psi) psi'' + c(psi, psi') = Q(psi, psi', t)                    (10.15)
+
+over every generalized coordinate (the specified ones, SGC, and the free
+ones, FGC, that the elimination leaves), with
+
+* M_ij = sum_b trace(W_{b,i} G_b W_{b,j}^T), the mass matrix (11.7);
+* c_i = sum_b trace(W_{b,i} G_b (alpha0_b + omega_b omega_b)^T), the
+  velocity-product terms, alpha0 the body accelerations with zero input
+  acceleration (the velocity-product stage of the kinematics, 8.40-8.52);
+* Q_i = sum_b W_{b,i} . Fext_b + sum_h phi'_{h,i} fq_h: gravity, springs,
+  dampers and applied loads (10.12 with its sign turned, 10.13).
+
+:func:`eom` is the compiled stage the later analyses (equilibrium,
+linearisation, time response) call; :func:`equations` the Python entry.
+Partitioned [F | S] (section 5.6 of the digest), the F rows give the free
+accelerations for given SGC accelerations and the S rows the drive forces
+(11.14): :meth:`EquationsOfMotion.free_accelerations`, :meth:`~EquationsOfMotion.drive`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from openimp._jit import njit
+from openimp.dynamics.inertia import body_inertias, inertia_wrenches, mass_matrix
+from openimp.dynamics.laws import law_values
+from openimp.dynamics.loads import applied_loads
+from openimp.errors import AnalysisError, InputError
+from openimp.kinematics.elimination import derivatives, eliminate, jacobian
+from openimp.kinematics.position import position
+from openimp.kinematics.rates import accelerations, body_operators, velocity, velocity_product
+from openimp.kinematics.track import tracker
+from openimp.results import Trajectory
+from openimp.system import (
+    System,
+    data_views,
+    dyn_data_views,
+    make_data,
+    make_dyn_data,
+    make_state,
+    model_views,
+)
+
+
+@njit(nrt=False)
+def eom(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | None,
+        ptol: float, psid: np.ndarray, M: np.ndarray, c: np.ndarray, Q: np.ndarray,
+        L: np.ndarray, P: np.ndarray, h: np.ndarray) -> tuple[int, int, float, float]:
+    """M, c and Q of (10.15) at S.q with generalized rates ``psid``.
+
+    The generalized coordinates are S.sgc and the columns the elimination
+    leaves free, in column order, into z.cols (returned count nf).  ``psid``
+    (nq,): the rates of the generalized coordinates (others ignored); the
+    joint rates S.qd = phi' psid (7.16) and S.qdd (velocity-product, 8.44) are
+    written.  M: (nq, nq), c, Q: (nq,), the leading nf used.  Returns (nf,
+    rank, kinetic energy, potential energy).
+    """
+    K = model_views(KP)
+    d = data_views(DP)
+    z = dyn_data_views(ZP)
+    nq = S.q.shape[0]
+    position(KP, DP, S, gen, 1)
+    jacobian(KP, DP, S, gen)
+    rank = eliminate(DP, S.sgc, ptol)[0]
+    for a in range(nq):
+        d.used[a] = False
+    for k in range(rank):
+        d.used[d.pcol[k]] = True
+    nf = 0
+    for a in range(nq):
+        if S.sgc[a] or not d.used[a]:
+            z.cols[nf] = a
+            nf += 1
+    cols = z.cols[:nf]
+    G = d.G[:, :nf]
+    W = z.W[:, :nf]
+    derivatives(DP, rank, cols, G)
+    body_operators(KP, DP, G, W)
+    for a in range(nq):
+        s = 0.0
+        for j in range(nf):
+            s += G[a, j] * psid[cols[j]]
+        S.qd[a] = s
+    velocity(KP, DP, S)
+    velocity_product(KP, DP, S, gen, rank)
+    accelerations(KP, DP, S)
+    body_inertias(KP, DP, YP, ZP)
+    ke = inertia_wrenches(KP, DP, ZP, L)
+    pe = applied_loads(KP, DP, YP, ZP, S, P)[0]
+    mass_matrix(KP, ZP, M[:nf, :nf], L, h)
+    for j in range(nf):
+        cj = 0.0
+        qj = 0.0
+        for b in range(K.order.shape[0]):
+            for i in range(6):
+                cj += W[b, j, i] * z.Fin[b, i]
+                qj += W[b, j, i] * z.Fext[b, i]
+        for a in range(nq):
+            qj += G[a, j] * z.fq[a]
+        c[j] = cj
+        Q[j] = qj
+    return nf, rank, ke, pe
+
+
+@dataclass
+class EquationsOfMotion:
+    """M psi'' + c = Q at one state (model units: forces, moments per radian, masses as
+    given), over the generalized coordinates ``coords`` (names; ``specified`` marks
+    the SGCs, the rest are FGCs).  ``kinetic``, ``potential``: the energies."""
+
+    coords: list[str]
+    specified: np.ndarray
+    M: np.ndarray
+    c: np.ndarray
+    Q: np.ndarray
+    kinetic: float
+    potential: float
+
+    def free_accelerations(self, specified_accels: np.ndarray | None = None) -> np.ndarray:
+        """psi''_F from M_FF psi''_F = Q_F - c_F - M_FS psi''_S (10.15, 11.13)."""
+        F, Sg = ~self.specified, self.specified
+        a_s = np.zeros(int(Sg.sum())) if specified_accels is None else np.asarray(
+            specified_accels, float)
+        rhs = self.Q[F] - self.c[F] - self.M[np.ix_(F, Sg)] @ a_s
+        MFF = self.M[np.ix_(F, F)]
+        if MFF.size and np.linalg.cond(MFF) > 1e12:
+            raise AnalysisError("the mass matrix of the free coordinates is singular: a "
+                                "massless part can move alone")
+        return np.linalg.solve(MFF, rhs) if MFF.size else np.zeros(0)
+
+    def drive(self, accels: np.ndarray) -> np.ndarray:
+        """Generalized forces the coordinates need for accelerations ``accels`` (all
+        coordinates): M psi'' + c - Q (11.14)."""
+        return self.M @ np.asarray(accels, float) + self.c - self.Q
+
+
+def equations(system: System, q: Any = None, rates: Any = None, *,
+              specified: Any = (), t: float = 0.0, pivot_tol: float = 1e-10
+              ) -> EquationsOfMotion:
+    """The equations of motion of ``system`` at joint variables ``q`` (model units,
+    default the modeling posture; an assembled posture) with generalized rates.
+
+    ``specified``: the SGCs (joint names or ``"joint.var"``); the free
+    coordinates are the ones the elimination leaves.  ``rates``: mapping
+    coordinate -> rate (model units per second; default at rest).
+    """
+    nq = system.nq
+    qm = system.modeling_q if q is None else np.asarray(q, float)
+    if qm.shape != (nq,):
+        raise InputError(f"q must hold the {nq} joint variables, got shape {qm.shape}")
+    S = make_state(system, system.to_internal(qm), t)
+    for key in specified:
+        S.sgc[system.var_index(key)] = True
+    psid = np.zeros(nq)
+    for key, v in dict(rates or {}).items():
+        c = system.var_index(key)
+        psid[c] = float(v) / system.var_scale[c]
+    data = make_data(system, nq)
+    dyn = make_dyn_data(system, nq)
+    if system.laws:
+        one = Trajectory(system, S.q[None, :].copy(), np.ones(1), np.zeros(1, np.int64),
+                         np.zeros((1, nq), bool), np.zeros(1, np.int64), [],
+                         tracker=tracker(system), sgc=S.sgc.copy())
+        dyn.v.law[:] = law_values(system, one, np.array([t]))[0]
+    M, cv, Qv = np.zeros((nq, nq)), np.zeros(nq), np.zeros(nq)
+    nf, _, ke, pe = eom(system.KP, data.DP, system.YP, dyn.ZP, S, system.gen,
+                        float(pivot_tol), psid, M, cv, Qv, np.zeros((3, 4)), np.zeros((6, 3)),
+                        np.zeros(6))
+    cols = dyn.v.cols[:nf].copy()
+    # model units: generalized forces of angles times L^2, of lengths times L
+    Ls = system.length_scale
+    gs = np.where(np.array([system.var_kinds[c] for c in cols]) == "angle", Ls * Ls, Ls)
+    e2 = Ls * Ls
+    # M_ij psi''_j is a force of i: scale by gs_i gs_j / L^2 (rates of lengths are / L)
+    Mm = M[:nf, :nf] * np.outer(gs, gs) / e2
+    return EquationsOfMotion([system.var_names[c] for c in cols], S.sgc[cols].copy(), Mm,
+                             cv[:nf] * gs, Qv[:nf] * gs, ke * e2, pe * e2)
