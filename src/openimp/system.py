@@ -162,8 +162,10 @@ DYN_DATA_FIELDS: tuple[Field, ...] = (
     Field("Fb", "f", ("nb", 6), "Fin - Fext: what the joints must supply to every body"),
     Field("fq", "f", ("nq",), "load on every joint variable: springs, dampers, forces"),
     Field("W", "f", ("nb", "nf", 6), "body operators W_{b,j} of the generalized coordinates"),
-    Field("Wd", "f", ("nb", 6), "W_{b,Delta} of one fictitious displacement (17.21)"),
-    Field("phid", "f", ("nq",), "phi'_{h,Delta} of one fictitious displacement (17.17)"),
+    Field("sub", "f", ("nb", 6), "sum of Fb over the subtree of every body (tree pass)"),
+    Field("Wsum", "f", ("nj", 6), "sum_b P(b,h) Fb_b: the wrench transmitted through joint h"),
+    Field("gvar", "f", ("nq",), "D_a . Wsum_h - fq_a: the generalized force of a unit rate of"
+          " variable a alone"),
     Field("e", "f", ("m",), "right-hand side C'_Delta of the fictitious column (17.12)"),
     Field("cols", "i", ("nf",), "the generalized coordinates (columns of W)"),
     Field("elen", "f", ("ne",), "length between the points of every element"),
@@ -385,7 +387,8 @@ class DynData:
 
 def make_dyn_data(system: System, nf: int) -> DynData:
     """The dynamic scratch of ``system`` for ``nf`` generalized coordinates."""
-    sizes = {"nb": len(system.bodies), "nq": system.nq, "ne": len(system.elements),
+    sizes = {"nb": len(system.bodies), "nj": len(system.joints), "nq": system.nq,
+             "ne": len(system.elements),
              "m": system.nrows, "nf": nf, "nlaw": max(len(system.laws), 1)}
     return DynData(allocate(DYN_DATA_FIELDS, sizes))
 

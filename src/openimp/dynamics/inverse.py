@@ -7,9 +7,11 @@ variables and rates:
 * :func:`evaluate`: the posture stages (tree pass, Jacobian and its
   elimination, velocities, drift, accelerations; ch 5-8), the inertia wrench
   of every body (10.8) and the applied loads (ch 9), z.Fb = inertia - applied;
+* :func:`transmitted`: the wrench every joint transmits to the bodies beyond
+  it, and the generalized force of every joint variable alone;
 * :func:`drive_forces`: the force or torque each generalized coordinate
   needs, tau_j = sum_b W_{b,j} . Fb_b - sum_h phi'_{h,j} fq_h (10.15 solved for
-  the SGC rows, 11.14);
+  the SGC rows, 11.14), regrouped by joint;
 * :func:`reactions`: the six components of the load of the first body of
   every joint on its second by fictitious displacements (17.1-17.20), each
   column C'_Delta (17.12) replayed through the kept elimination (17.17) and
@@ -29,7 +31,7 @@ from openimp.dynamics.inertia import body_inertias, inertia_wrenches
 from openimp.dynamics.loads import applied_loads
 from openimp.kinematics.elimination import derivatives, eliminate, jacobian, replay
 from openimp.kinematics.position import position
-from openimp.kinematics.rates import accelerations, body_operators, drift, velocity
+from openimp.kinematics.rates import accelerations, drift, velocity
 from openimp.system import data_views, dyn_data_views, model_views
 
 
@@ -93,27 +95,63 @@ def evaluate(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarr
 
 
 @njit(nrt=False)
-def drive_forces(KP: tuple, DP: tuple, ZP: tuple, rank: int, nf: int, out: np.ndarray
-                 ) -> None:
-    """tau_j = sum_b W_{b,j} . Fb_b - sum_h phi'_{h,j} fq_h for the first nf columns of
-    z.cols (11.14), into out[z.cols[j]] (out: (nq,)).
+def transmitted(KP: tuple, DP: tuple, ZP: tuple) -> None:
+    """Wsum_h = sum_b P(b,h) Fb_b for every joint (zero for the chords, on no path) and
+    gvar_a = D_a . Wsum_h(a) - fq_a for every joint variable.
 
-    Needs :func:`evaluate`; computes phi' (7.14, into d.G) and W (7.20, into z.W).
+    The power of W_{b,j} = sum_h P(b,h) sum_g D_h^g phi'_{h,j} (7.20) on the body
+    wrenches regroups by joint: sum_b W_{b,j} . Fb_b - sum_a phi'_{a,j} fq_a =
+    sum_a phi'_{a,j} gvar_a, so the driving forces and every fictitious
+    column need only phi', never W.  One pass against the tree order sums the
+    wrenches of every subtree (P(b,h) is the same for the whole subtree beyond
+    a tree joint h: the sign of the body it carries).  Needs :func:`evaluate`.
+    """
+    K = model_views(KP)
+    d = data_views(DP)
+    z = dyn_data_views(ZP)
+    nb = K.order.shape[0]
+    for b in range(nb):
+        for i in range(6):
+            z.sub[b, i] = z.Fb[b, i]
+    for h in range(K.jcode.shape[0]):
+        for i in range(6):
+            z.Wsum[h, i] = 0.0
+    for kb in range(nb - 1, -1, -1):
+        b = K.order[kb]
+        h = K.pj[b]
+        if h < 0:
+            continue
+        pb = K.pb[b]
+        sg = float(K.psign[b])
+        for i in range(6):
+            z.sub[pb, i] += z.sub[b, i]
+            z.Wsum[h, i] = sg * z.sub[b, i]
+    for h in range(K.jcode.shape[0]):
+        a0 = K.jq0[h]
+        for g in range(K.jnv[h]):
+            a = a0 + g
+            s = -z.fq[a]
+            for i in range(6):
+                s += d.Dh[a, i] * z.Wsum[h, i]
+            z.gvar[a] = s
+
+
+@njit(nrt=False)
+def drive_forces(DP: tuple, ZP: tuple, rank: int, nf: int, out: np.ndarray) -> None:
+    """tau_j = sum_b W_{b,j} . Fb_b - sum_h phi'_{h,j} fq_h = sum_a phi'_{a,j} gvar_a for the
+    first nf columns of z.cols (11.14), into out[z.cols[j]] (out: (nq,)).
+
+    Needs :func:`transmitted`; computes phi' (7.14) into d.G.
     """
     d = data_views(DP)
     z = dyn_data_views(ZP)
     cols = z.cols[:nf]
     G = d.G[:, :nf]
-    W = z.W[:, :nf]
     derivatives(DP, rank, cols, G)
-    body_operators(KP, DP, G, W)
     for j in range(nf):
         t = 0.0
-        for b in range(W.shape[0]):
-            for i in range(6):
-                t += W[b, j, i] * z.Fb[b, i]
         for a in range(G.shape[0]):
-            t -= G[a, j] * z.fq[a]
+            t += G[a, j] * z.gvar[a]
         out[cols[j]] = t
 
 
@@ -128,10 +166,10 @@ def reactions(KP: tuple, DP: tuple, ZP: tuple, rank: int, itol: float, R: np.nda
     C'_Delta = -L(i, Delta) D_Delta (17.12, zero on the Euler-Rodrigues rows)
     goes through the kept elimination (17.17); what the dependent rows leave
     (17.18) above ``itol`` makes the component statically indeterminate: NaN.
-    Otherwise phi'_Delta (17.16) and W_{b,Delta} = P(b,Delta) D_Delta +
-    sum_h P(b,h) D_h phi'_{h,Delta} (17.21 with the direct term, digest D1)
-    give F = sum_b W_{b,Delta} . Fb_b - sum_h phi'_{h,Delta} fq_h.  Needs
-    :func:`evaluate`.
+    Otherwise, with W_{b,Delta} = P(b,Delta) D_Delta + sum_h P(b,h) D_h
+    phi'_{h,Delta} (17.21 with the direct term, digest D1), (17.20) regroups
+    as F = sum_a phi'_{a,Delta} gvar_a + D_Delta . Wsum_Delta
+    (:func:`transmitted`).
     """
     K = model_views(KP)
     d = data_views(DP)
@@ -146,6 +184,10 @@ def reactions(KP: tuple, DP: tuple, ZP: tuple, rank: int, itol: float, R: np.nda
     nl = K.L.shape[0]
     for h in range(K.jcode.shape[0]):
         A = d.A[h]
+        inloop = False
+        for i in range(nl):
+            if K.L[i, h] != 0:
+                inloop = True
         for comp in range(6):
             ax = comp % 3
             # the screw of D_Delta: (axis, 0) for a force, (o x axis, axis) for a moment
@@ -160,6 +202,11 @@ def reactions(KP: tuple, DP: tuple, ZP: tuple, rank: int, itol: float, R: np.nda
                 Dv1 = oz * sv0 - ox * sv2
                 Dv2 = ox * sv1 - oy * sv0
                 Dw0, Dw1, Dw2 = sv0, sv1, sv2
+            W = z.Wsum[h]
+            F = Dv0 * W[0] + Dv1 * W[1] + Dv2 * W[2] + Dw0 * W[3] + Dw1 * W[4] + Dw2 * W[5]
+            if not inloop:  # a joint of no loop: nothing else moves (phi'_Delta = 0)
+                R[h, comp] = F
+                continue
             for r in range(m):
                 e[r] = 0.0
             for i in range(nl):
@@ -181,37 +228,8 @@ def reactions(KP: tuple, DP: tuple, ZP: tuple, rank: int, itol: float, R: np.nda
             if worst > itol:
                 R[h, comp] = np.nan
                 continue
-            for a in range(z.phid.shape[0]):
-                z.phid[a] = 0.0
             for k in range(rank):
-                z.phid[d.pcol[k]] = e[d.prow[k]]
-            F = 0.0
-            for kb in range(K.order.shape[0]):
-                b = K.order[kb]
-                hp = K.pj[b]
-                if hp < 0:
-                    for i in range(6):
-                        z.Wd[b, i] = 0.0
-                    continue
-                a0 = K.jq0[hp]
-                sg = float(K.psign[b])
-                pb = K.pb[b]
-                for i in range(6):
-                    s = 0.0
-                    for g in range(K.jnv[hp]):
-                        s += d.Dh[a0 + g, i] * z.phid[a0 + g]
-                    z.Wd[b, i] = z.Wd[pb, i] + sg * s
-                if hp == h:
-                    z.Wd[b, 0] += sg * Dv0
-                    z.Wd[b, 1] += sg * Dv1
-                    z.Wd[b, 2] += sg * Dv2
-                    z.Wd[b, 3] += sg * Dw0
-                    z.Wd[b, 4] += sg * Dw1
-                    z.Wd[b, 5] += sg * Dw2
-                for i in range(6):
-                    F += z.Wd[b, i] * z.Fb[b, i]
-            for a in range(z.phid.shape[0]):
-                F -= z.phid[a] * z.fq[a]
+                F += e[d.prow[k]] * z.gvar[d.pcol[k]]
             R[h, comp] = F
 
 
@@ -245,7 +263,8 @@ def forces_steps(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
             if rows.generalized[s, c]:
                 z.cols[nf] = c
                 nf += 1
-        drive_forces(KP, DP, ZP, rank, nf, out.drive[s])
+        transmitted(KP, DP, ZP)
+        drive_forces(DP, ZP, rank, nf, out.drive[s])
         if want_reactions:
             reactions(KP, DP, ZP, rank, itol, out.R[s])
         for i in range(z.eforce.shape[0]):
