@@ -167,6 +167,9 @@ DYN_DATA_FIELDS: tuple[Field, ...] = (
     Field("gvar", "f", ("nq",), "D_a . Wsum_h - fq_a: the generalized force of a unit rate of"
           " variable a alone"),
     Field("e", "f", ("m",), "right-hand side C'_Delta of the fictitious column (17.12)"),
+    Field("Xr", "f", ("n6", "m"), "the elimination replayed on every unit loop row: J11^-1"
+          " and the dependent rows' remainders, column by column"),
+    Field("Yr", "f", ("n6",), "sum_k Xr[r, prow_k] gvar[pcol_k] of every unit loop row"),
     Field("cols", "i", ("nf",), "the generalized coordinates (columns of W)"),
     Field("elen", "f", ("ne",), "length between the points of every element"),
     Field("erate", "f", ("ne",), "its rate of change"),
@@ -389,7 +392,8 @@ def make_dyn_data(system: System, nf: int) -> DynData:
     """The dynamic scratch of ``system`` for ``nf`` generalized coordinates."""
     sizes = {"nb": len(system.bodies), "nj": len(system.joints), "nq": system.nq,
              "ne": len(system.elements),
-             "m": system.nrows, "nf": nf, "nlaw": max(len(system.laws), 1)}
+             "m": system.nrows, "n6": 6 * system.nloops, "nf": nf,
+             "nlaw": max(len(system.laws), 1)}
     return DynData(allocate(DYN_DATA_FIELDS, sizes))
 
 

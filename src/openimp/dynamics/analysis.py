@@ -61,6 +61,19 @@ def forces(trajectory: Trajectory, *, reactions: bool = True,
     return _result(system, trajectory, out, reactions)
 
 
+def _loaded_joints(system: System) -> list[tuple[str, int, int]]:
+    """(joint, first variable, number of variables) of the joints with a spring, damper
+    or load on a variable (kept on the System)."""
+    hit = system.memo.get("loaded joints")
+    if hit is None:
+        Y, K = system.Y, system.K
+        on = (Y.qk != 0) | (Y.qc != 0) | (Y.qf != 0) | np.any(Y.qlaw >= 0, axis=1)
+        hit = system.memo["loaded joints"] = [
+            (j, int(K.jq0[h]), int(K.jnv[h])) for h, j in enumerate(system.joints)
+            if on[int(K.jq0[h]):int(K.jq0[h] + K.jnv[h])].any()]
+    return hit
+
+
 def _result(system: System, trajectory: Trajectory, out: ForceOut, reactions: bool) -> Forces:
     """Model units (lengths times L, forces times L, moments and energies times L^2 with
     L the length scale) and the result object."""
@@ -78,11 +91,8 @@ def _result(system: System, trajectory: Trajectory, out: ForceOut, reactions: bo
     power = {"gravity": out.gpower * e2}
     for i, name in enumerate(system.elements):
         power[name] = out.epower[:, i] * e2
-    for h, j in enumerate(system.joints):
-        a0, nv = int(system.K.jq0[h]), int(system.K.jnv[h])
-        if np.any(system.Y.qk[a0:a0 + nv]) or np.any(system.Y.qc[a0:a0 + nv]) or np.any(
-                system.Y.qf[a0:a0 + nv]) or np.any(system.Y.qlaw[a0:a0 + nv] >= 0):
-            power[f"joint {j}"] = out.qpower[:, a0:a0 + nv].sum(axis=1) * e2
+    for j, a0, nv in _loaded_joints(system):
+        power[f"joint {j}"] = out.qpower[:, a0:a0 + nv].sum(axis=1) * e2
     QD = trajectory.internal()[1]
     if QD is not None:
         dr = np.nan_to_num(out.drive) * QD
@@ -90,7 +100,8 @@ def _result(system: System, trajectory: Trajectory, out: ForceOut, reactions: bo
     else:
         power["drive"] = np.zeros(out.rank.shape[0])
     messages = []
-    for i, name in enumerate(system.elements):
+    for i in (np.flatnonzero(out.eskip.any(axis=0)) if out.eskip.size else ()):
+        name = system.elements[i]
         skipped = np.flatnonzero(out.eskip[:, i])
         if skipped.size:
             kind = ELEMENT_KINDS[int(kinds[i])]

@@ -106,8 +106,10 @@ def body_inertias(KP: tuple, DP: tuple, YP: tuple, ZP: tuple) -> None:
     z = dyn_data_views(ZP)
     K = model_views(KP)
     for b in range(K.order.shape[0]):
-        T = d.T0[b]
         J = y.Jb[b]
+        if J[3, 3] == 0.0 and J[0, 0] == 0.0 and J[1, 1] == 0.0 and J[2, 2] == 0.0:
+            continue  # massless: G stays 0 (the diagonal of a pseudo-inertia is >= 0)
+        T = d.T0[b]
         G = z.Gb[b]
         for i in range(4):
             for j in range(4):

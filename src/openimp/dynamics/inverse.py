@@ -170,67 +170,74 @@ def reactions(KP: tuple, DP: tuple, ZP: tuple, rank: int, itol: float, R: np.nda
     phi'_{h,Delta} (17.21 with the direct term, digest D1), (17.20) regroups
     as F = sum_a phi'_{a,Delta} gvar_a + D_Delta . Wsum_Delta
     (:func:`transmitted`).
+
+    The replay is linear in C': it is done once per step for the 6 unit rows
+    of every loop (z.Xr, z.Yr), and each of the 6 nj components combines them
+    with the screw of its D_Delta: F = D . (Wsum_Delta - sum_i L(i,Delta)
+    Yr_i), remainders -sum_i L(i,Delta) sum_r D_r Xr_(i,r).
     """
     K = model_views(KP)
     d = data_views(DP)
     z = dyn_data_views(ZP)
-    e = z.e
-    m = e.shape[0]
+    m = z.e.shape[0]
     used = d.used
     for r in range(m):
         used[r] = False
     for k in range(rank):
         used[d.prow[k]] = True
     nl = K.L.shape[0]
+    for r6 in range(6 * nl):
+        X = z.Xr[r6]
+        for r in range(m):
+            X[r] = 0.0
+        X[r6] = 1.0
+        replay(DP, rank, X)
+        y = 0.0
+        for k in range(rank):
+            y += X[d.prow[k]] * z.gvar[d.pcol[k]]
+        z.Yr[r6] = y
+    Dsc = z.e  # the screw of D_Delta (6 of the m entries)
     for h in range(K.jcode.shape[0]):
         A = d.A[h]
-        inloop = False
-        for i in range(nl):
-            if K.L[i, h] != 0:
-                inloop = True
         for comp in range(6):
             ax = comp % 3
             # the screw of D_Delta: (axis, 0) for a force, (o x axis, axis) for a moment
-            sv0 = A[0, ax]
-            sv1 = A[1, ax]
-            sv2 = A[2, ax]
             if comp < 3:
-                Dv0, Dv1, Dv2, Dw0, Dw1, Dw2 = sv0, sv1, sv2, 0.0, 0.0, 0.0
+                for i in range(3):
+                    Dsc[i] = A[i, ax]
+                    Dsc[3 + i] = 0.0
             else:
                 ox, oy, oz = A[0, 3], A[1, 3], A[2, 3]
-                Dv0 = oy * sv2 - oz * sv1
-                Dv1 = oz * sv0 - ox * sv2
-                Dv2 = ox * sv1 - oy * sv0
-                Dw0, Dw1, Dw2 = sv0, sv1, sv2
-            W = z.Wsum[h]
-            F = Dv0 * W[0] + Dv1 * W[1] + Dv2 * W[2] + Dw0 * W[3] + Dw1 * W[4] + Dw2 * W[5]
-            if not inloop:  # a joint of no loop: nothing else moves (phi'_Delta = 0)
-                R[h, comp] = F
-                continue
-            for r in range(m):
-                e[r] = 0.0
+                sx, sy, sz = A[0, ax], A[1, ax], A[2, ax]
+                Dsc[0] = oy * sz - oz * sy
+                Dsc[1] = oz * sx - ox * sz
+                Dsc[2] = ox * sy - oy * sx
+                Dsc[3] = sx
+                Dsc[4] = sy
+                Dsc[5] = sz
+            F = 0.0
+            for r in range(6):
+                F += Dsc[r] * z.Wsum[h, r]
+            worst = 0.0
             for i in range(nl):
                 lih = K.L[i, h]
                 if lih == 0:
                     continue
-                r0 = 6 * i
-                e[r0] = -lih * Dv0
-                e[r0 + 1] = -lih * Dv1
-                e[r0 + 2] = -lih * Dv2
-                e[r0 + 3] = -lih * Dw0
-                e[r0 + 4] = -lih * Dw1
-                e[r0 + 5] = -lih * Dw2
-            replay(DP, rank, e)
-            worst = 0.0
-            for r in range(m):
-                if not used[r] and abs(e[r]) > worst:
-                    worst = abs(e[r])
-            if worst > itol:
-                R[h, comp] = np.nan
-                continue
-            for k in range(rank):
-                F += e[d.prow[k]] * z.gvar[d.pcol[k]]
-            R[h, comp] = F
+                for r in range(6):
+                    F -= lih * Dsc[r] * z.Yr[6 * i + r]
+            for u in range(m):
+                if used[u]:
+                    continue
+                res = 0.0
+                for i in range(nl):
+                    lih = K.L[i, h]
+                    if lih == 0:
+                        continue
+                    for r in range(6):
+                        res += lih * Dsc[r] * z.Xr[6 * i + r, u]
+                if abs(res) > worst:
+                    worst = abs(res)
+            R[h, comp] = np.nan if worst > itol else F
 
 
 @njit(nrt=False)
