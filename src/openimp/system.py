@@ -177,6 +177,9 @@ DYN_DATA_FIELDS: tuple[Field, ...] = (
     Field("epower", "f", ("ne",), "power of every element on the mechanism"),
     Field("eskip", "b", ("ne",), "element skipped: its two points coincide"),
     Field("law", "f", ("nlaw",), "values of the load laws at this step"),
+    Field("L3", "f", (3, 4), "top rows of one 4x4 operator (scratch)"),
+    Field("P6", "f", (6, 3), "points, velocities and a direction of one element (scratch)"),
+    Field("h6", "f", (6,), "one wrench (scratch)"),
 )
 
 KDynData = namedtuple("KDynData", [f.name for f in DYN_DATA_FIELDS])  # type: ignore[misc]

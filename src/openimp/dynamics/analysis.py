@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from openimp.dynamics.inverse import ForceOut, StepRows, forces_steps
+from openimp.dynamics.inverse import ForceOptions, ForceOut, StepRows, forces_steps
 from openimp.dynamics.laws import law_values
 from openimp.errors import InputError
 from openimp.results import Forces, Trajectory
@@ -55,9 +55,8 @@ def forces(trajectory: Trajectory, *, reactions: bool = True,
     S.sgc[:] = trajectory.specified
     data = make_data(system, nq)
     dyn = make_dyn_data(system, nq)
-    forces_steps(system.KP, data.DP, system.YP, dyn.ZP, S, system.gen, rows, float(pivot_tol),
-                 float(indeterminate), bool(reactions), out, np.zeros((3, 4)),
-                 np.zeros((6, 3)))
+    opt = ForceOptions(float(pivot_tol), float(indeterminate), bool(reactions))
+    forces_steps(system.KP, data.DP, system.YP, dyn.ZP, S, system.gen, rows, opt, out)
     return _result(system, trajectory, out, reactions)
 
 

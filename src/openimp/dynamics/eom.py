@@ -49,9 +49,9 @@ from openimp.system import (
 
 @njit(nrt=False)
 def eom(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | None,
-        ptol: float, psid: np.ndarray, M: np.ndarray, c: np.ndarray, Q: np.ndarray,
-        L: np.ndarray, P: np.ndarray, h: np.ndarray) -> tuple[int, int, float, float]:
-    """M, c and Q of (10.15) at S.q with generalized rates ``psid``.
+        ptol: float, psid: np.ndarray, out: tuple) -> tuple[int, int, float, float]:
+    """M, c and Q of (10.15) at S.q with generalized rates ``psid``, into ``out`` =
+    (M, c, Q).
 
     The generalized coordinates are S.sgc and the columns the elimination
     leaves free, in column order, into z.cols (returned count nf).  ``psid``
@@ -60,6 +60,7 @@ def eom(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | 
     written.  M: (nq, nq), c, Q: (nq,), the leading nf used.  Returns (nf,
     rank, kinetic energy, potential energy).
     """
+    M, c, Q = out
     K = model_views(KP)
     d = data_views(DP)
     z = dyn_data_views(ZP)
@@ -90,9 +91,9 @@ def eom(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | 
     velocity_product(KP, DP, S, gen, rank)
     accelerations(KP, DP, S)
     body_inertias(KP, DP, YP, ZP)
-    ke = inertia_wrenches(KP, DP, ZP, L)
-    pe = applied_loads(KP, DP, YP, ZP, S, P)[0]
-    mass_matrix(KP, ZP, M[:nf, :nf], L, h)
+    ke = inertia_wrenches(KP, DP, ZP)
+    pe = applied_loads(KP, DP, YP, ZP, S)[0]
+    mass_matrix(KP, ZP, M[:nf, :nf])
     for j in range(nf):
         cj = 0.0
         qj = 0.0
@@ -169,8 +170,7 @@ def equations(system: System, q: Any = None, rates: Any = None, *,
         dyn.v.law[:] = law_values(system, one, np.array([t]))[0]
     M, cv, Qv = np.zeros((nq, nq)), np.zeros(nq), np.zeros(nq)
     nf, _, ke, pe = eom(system.KP, data.DP, system.YP, dyn.ZP, S, system.gen,
-                        float(pivot_tol), psid, M, cv, Qv, np.zeros((3, 4)), np.zeros((6, 3)),
-                        np.zeros(6))
+                        float(pivot_tol), psid, (M, cv, Qv))
     cols = dyn.v.cols[:nf].copy()
     # model units: generalized forces of angles times L^2, of lengths times L
     Ls = system.length_scale

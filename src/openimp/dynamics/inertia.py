@@ -124,16 +124,17 @@ def body_inertias(KP: tuple, DP: tuple, YP: tuple, ZP: tuple) -> None:
 
 
 @njit(nrt=False)
-def inertia_wrenches(KP: tuple, DP: tuple, ZP: tuple, L: np.ndarray) -> float:
+def inertia_wrenches(KP: tuple, DP: tuple, ZP: tuple) -> float:
     """Inertia wrench of every body, trace(W G (alpha + omega omega)^T) (10.8), into z.Fin,
     and the kinetic energy 1/2 sum_b trace(omega_b G_b omega_b^T) (9.7), returned.
 
     Needs z.Gb (:func:`body_inertias`), the velocity screws d.V and the
-    acceleration screws d.Ab (:mod:`openimp.kinematics.rates`).  L: (3, 4) scratch.
+    acceleration screws d.Ab (:mod:`openimp.kinematics.rates`).
     """
     d = data_views(DP)
     z = dyn_data_views(ZP)
     K = model_views(KP)
+    L = z.L3
     ke = 0.0
     for b in range(K.order.shape[0]):
         acceleration_rows(d.V[b], d.Ab[b], L)
@@ -146,15 +147,17 @@ def inertia_wrenches(KP: tuple, DP: tuple, ZP: tuple, L: np.ndarray) -> float:
 
 
 @njit(nrt=False)
-def mass_matrix(KP: tuple, ZP: tuple, M: np.ndarray, L: np.ndarray, h: np.ndarray) -> None:
+def mass_matrix(KP: tuple, ZP: tuple, M: np.ndarray) -> None:
     """M_ij = sum_b trace(W_{b,i} G_b W_{b,j}^T) (10.15, 11.7) over the columns of z.W.
 
     Needs z.Gb and z.W (:func:`~openimp.kinematics.rates.body_operators`).
-    M: (nf, nf); L: (3, 4) and h: (6,) scratch.  Symmetric by construction:
-    only the upper triangle is summed, the lower copied.
+    M: (nf, nf).  Symmetric by construction: only the upper triangle is summed,
+    the lower copied.
     """
     z = dyn_data_views(ZP)
     K = model_views(KP)
+    L = z.L3
+    h = z.h6
     nf = M.shape[0]
     for i in range(nf):
         for j in range(nf):

@@ -47,6 +47,15 @@ class StepRows(NamedTuple):
     laws: np.ndarray
 
 
+class ForceOptions(NamedTuple):
+    """ptol: pivot tolerance of the elimination; itol: largest remainder (17.18) of a
+    determinate reaction component; reactions: whether to compute them."""
+
+    ptol: float
+    itol: float
+    reactions: bool
+
+
 class ForceOut(NamedTuple):
     """Per step (internal units): drive (nq: the force of every generalized coordinate,
     NaN elsewhere), R (nj x 6: u v w forces, u v w moments of the first body on the
@@ -70,12 +79,12 @@ class ForceOut(NamedTuple):
 
 @njit(nrt=False)
 def evaluate(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | None,
-             ptol: float, L: np.ndarray, P: np.ndarray) -> tuple[int, float, float, float]:
+             ptol: float) -> tuple[int, float, float, float]:
     """All stages of one state S (q, qd, qdd of every joint variable; sgc) up to z.Fb.
 
     Returns (rank of the elimination, kinetic energy, potential energy, power
     of gravity).  S.q is not changed (no Newton step: the posture is the
-    solved one).  L (3 x 4), P (6 x 3): scratch.
+    solved one).
     """
     z = dyn_data_views(ZP)
     K = model_views(KP)
@@ -86,8 +95,8 @@ def evaluate(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarr
     drift(KP, DP, S, gen)
     accelerations(KP, DP, S)
     body_inertias(KP, DP, YP, ZP)
-    ke = inertia_wrenches(KP, DP, ZP, L)
-    pe, gp = applied_loads(KP, DP, YP, ZP, S, P)
+    ke = inertia_wrenches(KP, DP, ZP)
+    pe, gp = applied_loads(KP, DP, YP, ZP, S)
     for b in range(K.order.shape[0]):
         for i in range(6):
             z.Fb[b, i] = z.Fin[b, i] - z.Fext[b, i]
@@ -242,12 +251,12 @@ def reactions(KP: tuple, DP: tuple, ZP: tuple, rank: int, itol: float, R: np.nda
 
 @njit(nrt=False)
 def forces_steps(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
-                 gen: np.ndarray | None, rows: tuple, ptol: float, itol: float,
-                 want_reactions: bool, out: tuple, L: np.ndarray, P: np.ndarray) -> None:
+                 gen: np.ndarray | None, rows: tuple, opt: tuple, out: tuple) -> None:
     """Driving forces, reactions, element forces and energies at every stored step.
 
-    ``rows``: :class:`StepRows`; ``out``: :class:`ForceOut`; S: scratch state
-    whose sgc marks the specified coordinates of the motion.
+    ``rows``: :class:`StepRows`; ``opt``: :class:`ForceOptions`; ``out``:
+    :class:`ForceOut`; S: scratch state whose sgc marks the specified
+    coordinates of the motion.
     """
     z = dyn_data_views(ZP)
     nq = S.q.shape[0]
@@ -258,7 +267,7 @@ def forces_steps(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
             S.qdd[c] = rows.QDD[s, c]
         for k in range(rows.laws.shape[1]):
             z.law[k] = rows.laws[s, k]
-        rank, ke, pe, gp = evaluate(KP, DP, YP, ZP, S, gen, ptol, L, P)
+        rank, ke, pe, gp = evaluate(KP, DP, YP, ZP, S, gen, opt.ptol)
         out.rank[s] = rank
         out.energy[s, 0] = ke
         out.energy[s, 1] = pe
@@ -272,8 +281,8 @@ def forces_steps(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
                 nf += 1
         transmitted(KP, DP, ZP)
         drive_forces(DP, ZP, rank, nf, out.drive[s])
-        if want_reactions:
-            reactions(KP, DP, ZP, rank, itol, out.R[s])
+        if opt.reactions:
+            reactions(KP, DP, ZP, rank, opt.itol, out.R[s])
         for i in range(z.eforce.shape[0]):
             out.elen[s, i] = z.elen[i]
             out.erate[s, i] = z.erate[i]

@@ -62,7 +62,7 @@ def _add_force(F: np.ndarray, f: np.ndarray, s: float, r: np.ndarray) -> None:
 
 
 @njit(nrt=False)
-def applied_loads(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, P: np.ndarray
+def applied_loads(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple
                   ) -> tuple[float, float]:
     """Applied wrenches on the bodies (z.Fext), loads on the joint variables (z.fq), the
     tension or magnitude and power of every element, and the potential energy.
@@ -74,7 +74,7 @@ def applied_loads(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, P: np.nd
     torques (9.26) along a fixed direction or from one point toward another.
     A law slot >= 0 replaces the linear term by z.law[slot].  An element whose
     two points coincide is skipped (z.eskip).  Needs d.T0 and d.V at S.q, S.qd
-    and z.Gb.  P: (6, 3) scratch.  Returns the potential energy V = -sum m g.c +
+    and z.Gb.  Returns the potential energy V = -sum m g.c +
     the linear springs' energies (the law springs have none known) and the
     power of gravity.
     """
@@ -83,6 +83,7 @@ def applied_loads(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, P: np.nd
     y = dyn_views(YP)
     z = dyn_data_views(ZP)
     g = y.grav
+    P = z.P6
     pe = 0.0
     gp = 0.0
     for b in range(K.order.shape[0]):
