@@ -6,7 +6,8 @@ mass, and the gas force), T = (m x'' - F_gas) dx/dtheta with the closed-form
 slider-crank x(theta) = r cos(theta) + sqrt(l^2 - r^2 sin^2(theta)); the main
 bearing against the balance of forces on the moving parts (bearing + slide
 guide + gas = m a of the piston); the quasi-static four-bar's torque against
-differences of its potential energy.
+differences of its potential energy; the Hooke coupling's input torque against
+virtual work with the output load, and its indeterminate forces.
 """
 
 from __future__ import annotations
@@ -63,5 +64,13 @@ def test_forces_docs_run_and_are_right(tmp_path, monkeypatch, capsys) -> None:
     ff = openimp.forces(tt)
     np.testing.assert_allclose(ff.drive["A.theta"][1],
                                (ff.potential[2] - ff.potential[0]) / 2e-6, rtol=1e-7)
+    # --- the Hooke coupling: virtual work T_in w_in + P w_out = 0 (the sign of
+    # the output rate as the joint OUT is oriented: SHAFT2 -> BASE), forces
+    # indeterminate and moments determinate at every joint
+    trh, fh = ns["trh"], ns["fh"]
+    w_out = trh.joint_velocity("OUT")[:, 0]
+    np.testing.assert_allclose(fh.drive["IN.theta"] * 1.0 + 10.0 * w_out, 0.0, atol=1e-9)
+    for j in ("IN", "P1", "P2", "OUT"):
+        assert np.all(fh.determinate(j) == [False] * 3 + [True] * 3), j
     out = capsys.readouterr().out
     assert "peak torque" in out and "main-bearing" in out
