@@ -32,7 +32,8 @@ from benchmarks.tools import TOOLS
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
-CASE_ORDER = ["fourbar", "fourbar_rates", "slider", "rssr", "chain6r", "batch"]
+CASE_ORDER = ["fourbar", "fourbar_rates", "slider", "rssr", "chain6r", "batch",
+              "fourbar_forces", "chain6r_dynamics"]
 TOOL_ORDER = ["openimp", "pylinkage-py", "pylinkage-numba", "exudyn", "mujoco", "pinocchio"]
 MILLION_TOOLS = ["openimp", "pylinkage-numba"]
 
@@ -185,7 +186,11 @@ def report(results: dict, extras: dict, meta: dict) -> str:
     L.append("# openimp speed benchmarks\n")
     L.append(f"Run {meta['date']} on {meta['machine']} ({meta['cpus']} CPUs), "
              f"Python {meta['python']}, numpy {meta['numpy']}; total {meta['total_s']:.0f} s.\n")
-    L.append(f"openimp tree: {meta['git']}. Load average (1 min) at start / end: "
+    if meta.get("openimp_from"):
+        L.append(f"openimp imported from `{meta['openimp_from']}`, not from this repository's "
+                 f"src/ (source hash {meta.get('openimp_hash', '?')}).\n")
+    tree = "repository" if meta.get("openimp_from") else "openimp tree"
+    L.append(f"{tree}: {meta['git']}. Load average (1 min) at start / end: "
              f"{meta['load'][0]:.1f} / {meta['load'][1]:.1f} (the machine is shared: "
              "other processes inflate wall times).\n")
     if meta.get("src_changed"):
@@ -235,6 +240,26 @@ def report(results: dict, extras: dict, meta: dict) -> str:
                 f"{_fmt_mb(r.get('rss_growth_mb'))} | {_fmt_mb(r.get('pyheap_peak_mb'))} | "
                 f"{_fmt_err(r.get('err_ref'))} | "
                 f"{'-' if tool == 'openimp' else _fmt_err(r.get('err_openimp'))} | {note} |")
+            for v in r.get("variants", []) if ok else []:
+                vrate = v.get("postures_per_s")
+                vok = v.get("status") == "ok"
+                vnote = f"{vrate / rate:.2f} x the run above" if rate and vrate else ""
+                if not vok:
+                    vnote = "OUTPUT MISMATCH; " + vnote
+                L.append(
+                    f"| {label}: {v['label']} | "
+                    f"{_fmt_rate(vrate) if vok else '(' + _fmt_rate(vrate) + ')'} | "
+                    f"{1e3 * v['median_s']:.3f} | {len(v.get('times', []))} | - | | | "
+                    f"{_fmt_err(v.get('err_ref'))} | - | {vnote} |")
+
+    targets = _targets(results)
+    if targets:
+        L.append("\n## Targets (issue 13)\n")
+        L.append("Timed in the same worker process, round-robin with the main run (see the "
+                 "case tables for every figure).\n")
+        L.append("| target | openimp (postures/s) | against (postures/s) | ratio | needed | met |")
+        L.append("|---|---:|---:|---:|---:|---|")
+        L.extend(targets)
 
     # openimp cold start
     L.append("\n## openimp cold start (fresh process)\n")
@@ -290,6 +315,60 @@ def report(results: dict, extras: dict, meta: dict) -> str:
     return "\n".join(L) + "\n"
 
 
+def _variant(rec: dict | None, key: str) -> dict | None:
+    for v in (rec or {}).get("variants", []):
+        if v.get("key") == key and v.get("status") == "ok":
+            return v
+    return None
+
+
+def _ok_rate(rec: dict | None) -> float | None:
+    return rec.get("postures_per_s") if rec and rec.get("status") == "ok" else None
+
+
+def _targets(results: dict) -> list[str]:
+    """Rows of the issue-13 targets: four-bar forces vs the kinematic sweep, openimp's 6R
+    inverse dynamics vs Pinocchio's rnea from Python."""
+    rows = []
+
+    def row(what, a, b_label, b, needed, ok):
+        if a is None or b is None:
+            return
+        met = "**yes**" if ok(a / b) else "**no**"
+        rows.append(f"| {what} | {_fmt_rate(a)} | {b_label} {_fmt_rate(b)} | {a / b:.2f} | "
+                    f"{needed} | {met if needed != '-' else '-'} |")
+
+    fo = results.get(("openimp", "fourbar_forces"))
+    kin = _variant(fo, "kinematic")
+    row("four-bar: sweep with rates + forces() (drive torque, all joint reactions) at no "
+        "less than half the speed of the kinematic sweep with rates",
+        _ok_rate(fo), "kinematic sweep", kin and kin["postures_per_s"], ">= 0.5",
+        lambda x: x >= 0.5)
+    ch = results.get(("openimp", "chain6r_dynamics"))
+    pin = _ok_rate(results.get(("pinocchio", "chain6r_dynamics")))
+    row("6R inverse dynamics: sweep with rates + forces(reactions=False), faster per "
+        "posture than Pinocchio's rnea called from Python", _ok_rate(ch), "Pinocchio rnea",
+        pin, "> 1", lambda x: x > 1.0)
+    rv = _variant(ch, "reactions")
+    row("(information) 6R with reactions=True", rv and rv["postures_per_s"],
+        "Pinocchio rnea", pin, "-", lambda x: True)
+    mj = _ok_rate(results.get(("mujoco", "chain6r_dynamics")))
+    row("(information) 6R inverse dynamics against MuJoCo's mj_inverse from Python",
+        _ok_rate(ch), "MuJoCo mj_inverse", mj, "-", lambda x: True)
+    return rows
+
+
+def _openimp_origin() -> str:
+    """Where the workers import openimp from, when it is not this repository's src/."""
+    import importlib.util
+
+    spec = importlib.util.find_spec("openimp")
+    if spec is None or spec.origin is None:
+        return ""
+    where = Path(spec.origin).resolve().parent.parent
+    return "" if where == (ROOT / "src").resolve() else str(where)
+
+
 def _git_state() -> str:
     try:
         head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT,
@@ -337,7 +416,7 @@ def main(argv: list[str] | None = None) -> int:
             # fill openimp's kernel cache first (a no-op when it is warm), so that the
             # cases' first runs are the "numba cache present" figures the report says
             print("  warming openimp's kernel cache", file=sys.stderr, flush=True)
-            for case in ("fourbar_rates", "batch"):
+            for case in ("fourbar_rates", "batch", "fourbar_forces", "chain6r_dynamics"):
                 if case == "fourbar_rates" or case in cases:
                     run_worker("openimp", case, ["--cold-only"])
         for case in cases:
@@ -380,6 +459,7 @@ def main(argv: list[str] | None = None) -> int:
     meta = {"date": datetime.datetime.now().strftime("%Y-%m-%d %H:%M"),
             "git": _git_state(), "load": (load0[0], os.getloadavg()[0]),
             "src_changed": src_hash() != hash0,
+            "openimp_from": _openimp_origin(), "openimp_hash": hash0,
             "machine": platform.machine(), "cpus": os.cpu_count(),
             "python": platform.python_version(), "numpy": np.__version__,
             "versions": versions, "total_s": time.perf_counter() - t0}

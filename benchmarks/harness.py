@@ -40,11 +40,26 @@ class NotAvailable(Exception):  # noqa: N818 - reads as a status, not an error
 
 
 @dataclass
+class Variant:
+    """Another way of doing the case, timed alongside the main run (same postures).
+
+    ``outputs`` (optional) checks its result against the reference like the main
+    run; without it the variant is timed only (for example the kinematic sweep
+    that a force analysis starts from)."""
+
+    key: str
+    label: str
+    run: Callable[[], Any]
+    outputs: Callable[[Any], dict[str, np.ndarray]] | None = None
+
+
+@dataclass
 class CaseRun:
     run: Callable[[], Any]
     outputs: Callable[[Any], dict[str, np.ndarray]]
     postures: int
     note: str = ""
+    variants: list[Variant] = field(default_factory=list)
 
 
 def per_variant_batch(runs: list[Callable[[], Any]],
@@ -101,6 +116,15 @@ def _ref_batch(ctx: Context) -> dict[str, np.ndarray]:
     return {"rocker": np.stack([r["rocker"] for r in refs]), "P": np.stack([r["P"] for r in refs])}
 
 
+def _ref_fourbar_forces(ctx: Context) -> dict[str, np.ndarray]:
+    return mx.FOURBAR_DYN.reference(mx.FOURBAR.crank_angles(), mx.OMEGA, mx.ALPHA)
+
+
+def _ref_chain_dynamics(ctx: Context) -> dict[str, np.ndarray]:
+    _, q, qd, qdd = mx.CHAIN6R_DYN.motion()
+    return mx.CHAIN6R_DYN.reference(q, qd, qdd)
+
+
 def _ref_million(ctx: Context) -> dict[str, np.ndarray]:
     th = mx.FOURBAR.theta0 + np.radians(np.arange(ctx.nmillion) * 0.36)
     return {"P": mx.FOURBAR.reference(th)["P"]}
@@ -124,16 +148,23 @@ CASE_SPECS: dict[str, CaseSpec] = {
         CaseSpec("rssr", "(d) spatial RSSR, 360 steps", _ref_rssr),
         CaseSpec("chain6r", "(e) 6R serial chain forward kinematics, 360 joint sets", _ref_chain),
         CaseSpec("batch", "(f) 1000 four-bar variants x 360-step sweep", _ref_batch),
+        CaseSpec("fourbar_forces", "(g) four-bar, 360 steps with rates: drive torque + joint "
+                 "reactions (masses, gravity)", _ref_fourbar_forces),
+        CaseSpec("chain6r_dynamics", "(h) 6R serial chain inverse dynamics, 360 postures "
+                 "(q, qd, qdd; masses, gravity)", _ref_chain_dynamics),
         CaseSpec("million", "1e6 stored postures of the four-bar (all joint variables + one point)",
                  _ref_million),
     ]
 }
 
 ANGLE_KEYS = {"rocker"}
+#: forces and torques: the error is relative, max |difference| / max |reference| of the key
+RELATIVE_KEYS = {"tau", "R"}
 
 
 def max_error(got: dict[str, np.ndarray], ref: dict[str, np.ndarray]) -> tuple[float, str]:
-    """Largest absolute difference over the keys of ``ref`` (angles modulo 2 pi)."""
+    """Largest difference over the keys of ``ref``: absolute (angles modulo 2 pi), or for
+    :data:`RELATIVE_KEYS` relative to the largest magnitude of the reference array."""
     worst, where = 0.0, ""
     for k, r in ref.items():
         if k not in got:
@@ -149,6 +180,8 @@ def max_error(got: dict[str, np.ndarray], ref: dict[str, np.ndarray]) -> tuple[f
         if k in ANGLE_KEYS:
             d = np.angle(np.exp(1j * d))
         e = float(np.max(np.abs(d))) if d.size else 0.0
+        if k in RELATIVE_KEYS and d.size:
+            e /= max(float(np.max(np.abs(r))), 1e-300)
         if not np.isfinite(e):
             e = float("inf")
         if e > worst or not where:
@@ -209,18 +242,42 @@ def measure(factory: Callable[[Context], CaseRun], spec: CaseSpec, ctx: Context,
         np.savez(save_to, **{k: np.asarray(v) for k, v in got.items()})
     del got, ref
 
-    times: list[float] = []
-    t_start = time.perf_counter()
-    while len(times) < ctx.repeats or (time.perf_counter() - t_start < ctx.budget_s
-                                       and len(times) < 25):
+    # variants: warm-up and check, then timed round-robin with the main run, so
+    # that a change of the machine's load affects them alike
+    vrecs: list[dict[str, Any]] = []
+    for v in cr.variants:
+        vr: dict[str, Any] = {"key": v.key, "label": v.label}
         t = time.perf_counter()
-        out = cr.run()
-        times.append(time.perf_counter() - t)
+        out = v.run()
+        vr["cold_s"] = time.perf_counter() - t
+        if v.outputs is not None:
+            verr, vwhere = max_error(v.outputs(out), spec.reference(ctx))
+            vr["err_ref"] = verr
+            vr["err_ref_key"] = vwhere
         del out
+        vrecs.append(vr)
+    runs = [cr.run] + [v.run for v in cr.variants]
+    times_all: list[list[float]] = [[] for _ in runs]
+    t_start = time.perf_counter()
+    while len(times_all[0]) < ctx.repeats or (time.perf_counter() - t_start < ctx.budget_s
+                                              and len(times_all[0]) < 25):
+        for j, run in enumerate(runs):
+            t = time.perf_counter()
+            out = run()
+            times_all[j].append(time.perf_counter() - t)
+            del out
+    times = times_all[0]
     rec["times"] = times
     med = statistics.median(times)
     rec["median_s"] = med
     rec["postures_per_s"] = cr.postures / med
+    for vr, vt in zip(vrecs, times_all[1:]):
+        vr["times"] = vt
+        vr["median_s"] = statistics.median(vt)
+        vr["postures_per_s"] = cr.postures / vr["median_s"]
+        vr["status"] = "ok" if vr.get("err_ref", 0.0) <= TOL else "mismatch"
+    if vrecs:
+        rec["variants"] = vrecs
 
     # memory of one run: process peak-RSS growth, then Python-heap peak
     rec["process_peak_rss_mb"] = peak_rss_mb()  # build + warm-up + timed runs

@@ -6,7 +6,7 @@ import numpy as np
 
 import openimp
 from benchmarks import mechanisms as mx
-from benchmarks.harness import CaseRun, NotAvailable
+from benchmarks.harness import CaseRun, NotAvailable, Variant
 
 NAME = "openimp"
 
@@ -237,6 +237,109 @@ def case_million(ctx) -> CaseRun:
     return CaseRun(run, outputs, postures=n)
 
 
+# ------------------------------------------------------------- force cases
+def fourbar_dynamic_model(fd: mx.FourBarDynamics):
+    """The four-bar of :func:`fourbar_model` with the masses of ``fd`` and gravity."""
+    m = fourbar_model(fd.fb)
+    for i, body in enumerate(fd.names):
+        m.add_mass(body, fd.links[i].mass, tuple(float(x) for x in fd.centre0(i)),
+                   fd.inertia0(i))
+    m.set_gravity(tuple(float(x) for x in fd.gravity))
+    return m
+
+
+def _forces_api():
+    if not hasattr(openimp, "forces"):
+        raise NotAvailable("openimp.forces does not exist in this tree")
+
+
+def case_fourbar_forces(ctx) -> CaseRun:
+    """sweep(rates=, accels=) then forces(): the crank torque and every joint reaction.
+
+    Timed alongside: the kinematic sweep with rates alone (the ``fourbar_rates``
+    run on the same system) and forces() alone on a stored trajectory.
+    """
+    _forces_api()
+    fd = mx.FOURBAR_DYN
+    fb = fd.fb
+    s = openimp.compile(fourbar_dynamic_model(fd))
+    drv = {"A": fb.crank_angles() - fb.theta0}
+    rates = {"A": np.full(mx.NSTEPS, mx.OMEGA)}
+    accels = {"A": np.full(mx.NSTEPS, mx.ALPHA)}
+    joints = ("A", "B", "C", "D")
+    drive_key = "A.theta" if "A.theta" in s.var_names else "A"
+
+    def kin():
+        return _complete(openimp.sweep(s, drv, rates=rates, accels=accels))
+
+    def run():
+        return openimp.forces(kin())
+
+    stored = kin()
+
+    def forces_only():
+        return openimp.forces(stored)
+
+    def outputs(f):
+        R = np.stack([f.reaction(j, "global")[:, [0, 1, 5]] for j in joints], axis=1)
+        return {"tau": f.drive[drive_key], "R": R}
+
+    return CaseRun(run, outputs, postures=mx.NSTEPS, variants=[
+        Variant("kinematic", "kinematic sweep with rates only (fourbar_rates)", kin),
+        Variant("forces_only", "forces() alone on a stored trajectory", forces_only, outputs),
+    ])
+
+
+def chain_dynamic_model(cd: mx.Chain6RDynamics):
+    """The 6R chain of :func:`chain_model` with link masses, inertias and gravity."""
+    m = chain_model(cd.chain)
+    for i in range(6):
+        m.add_mass(f"L{i + 1}", cd.masses[i], tuple(float(x) for x in cd.centres[i]),
+                   cd.inertia(i))
+    m.set_gravity(tuple(float(x) for x in cd.gravity))
+    return m
+
+
+def case_chain_dynamics(ctx) -> CaseRun:
+    """Inverse dynamics of the 6R chain: sweep with the rates and accelerations of all six
+    joints, then forces(reactions=False).  Timed alongside: the same with reactions,
+    the kinematic sweep alone and forces() alone on a stored trajectory."""
+    _forces_api()
+    cd = mx.CHAIN6R_DYN
+    s = openimp.compile(chain_dynamic_model(cd))
+    _, q, qd, qdd = cd.motion()
+    names = [f"J{i + 1}" for i in range(6)]
+    drv = {j: q[:, i] for i, j in enumerate(names)}
+    rates = {j: qd[:, i] for i, j in enumerate(names)}
+    accels = {j: qdd[:, i] for i, j in enumerate(names)}
+    keys = [f"{j}.theta" if f"{j}.theta" in s.var_names else j for j in names]
+
+    def kin():
+        return _complete(openimp.sweep(s, drv, rates=rates, accels=accels))
+
+    def run():
+        return openimp.forces(kin(), reactions=False)
+
+    def run_reactions():
+        return openimp.forces(kin(), reactions=True)
+
+    stored = kin()
+
+    def forces_only():
+        return openimp.forces(stored, reactions=False)
+
+    def outputs(f):
+        return {"tau": np.stack([f.drive[k] for k in keys], axis=1)}
+
+    return CaseRun(run, outputs, postures=q.shape[0], variants=[
+        Variant("reactions", "the same with reactions=True (all joint reactions)",
+                run_reactions, outputs),
+        Variant("kinematic", "kinematic sweep with rates only", kin),
+        Variant("forces_only", "forces(reactions=False) alone on a stored trajectory",
+                forces_only, outputs),
+    ])
+
+
 CASES = {
     "fourbar": case_fourbar,
     "fourbar_rates": case_fourbar_rates,
@@ -245,4 +348,6 @@ CASES = {
     "chain6r": case_chain,
     "batch": case_batch,
     "million": case_million,
+    "fourbar_forces": case_fourbar_forces,
+    "chain6r_dynamics": case_chain_dynamics,
 }

@@ -45,12 +45,20 @@ class _Tree:
         self.model = pin.Model()
         self._origin = {0: np.zeros(3)}
 
-    def joint(self, parent: int, jm, origin, name: str) -> int:
+    def joint(self, parent: int, jm, origin, name: str, inertia=None) -> int:
+        """A joint at ``origin`` (global, frame aligned with the world at q = 0) and its
+        body; ``inertia``: (mass, centre (global), 3x3 tensor about the centre on global
+        axes), default a unit sphere."""
         pin = self.pin
         o = _p3(origin)
         place = pin.SE3(np.eye(3), o - self._origin[parent])
         jid = self.model.addJoint(parent, jm, place, name)
-        self.model.appendBodyToJoint(jid, pin.Inertia.FromSphere(1.0, 0.1), pin.SE3.Identity())
+        if inertia is None:
+            I = pin.Inertia.FromSphere(1.0, 0.1)
+        else:
+            m, c, Ic = inertia
+            I = pin.Inertia(float(m), np.asarray(c, float) - o, np.asarray(Ic, float))
+        self.model.appendBodyToJoint(jid, I, pin.SE3.Identity())
         self._origin[jid] = o
         return jid
 
@@ -270,10 +278,9 @@ def case_rssr(ctx) -> CaseRun:
     return CaseRun(run, outputs, postures=n, note="minimum-norm Newton (spherical joint)")
 
 
-def case_chain(ctx) -> CaseRun:
+def _chain_tree(ch: mx.SerialChain6R, dyn: mx.Chain6RDynamics | None = None):
     import pinocchio as pin
 
-    ch = mx.CHAIN6R
     kinds = {0: pin.JointModelRX, 1: pin.JointModelRY, 2: pin.JointModelRZ}
     t = _Tree()
     parent = 0
@@ -281,9 +288,20 @@ def case_chain(ctx) -> CaseRun:
         ax = ch.axes[i]
         k = int(np.argmax(np.abs(ax)))
         jm = kinds[k]() if np.isclose(ax[k], 1.0) else pin.JointModelRevoluteUnaligned(ax)
-        parent = t.joint(parent, jm, ch.origins[i], f"J{i + 1}")
+        inertia = None if dyn is None else (dyn.masses[i], dyn.centres[i], dyn.inertia(i))
+        parent = t.joint(parent, jm, ch.origins[i], f"J{i + 1}", inertia)
     fP = t.frame(parent, ch.P0, "P")
+    if dyn is not None:
+        t.model.gravity = pin.Motion(np.asarray(dyn.gravity, float), np.zeros(3))
     t.done()
+    return t, fP
+
+
+def case_chain(ctx) -> CaseRun:
+    import pinocchio as pin
+
+    ch = mx.CHAIN6R
+    t, fP = _chain_tree(ch)
     m, d = t.model, t.data
     q = ch.joint_values()
     n = q.shape[0]
@@ -300,6 +318,29 @@ def case_chain(ctx) -> CaseRun:
         return {"P": out}
 
     return CaseRun(run, outputs, postures=n)
+
+
+def case_chain_dynamics(ctx) -> CaseRun:
+    """pinocchio.rnea(model, data, q, v, a) per posture, called from Python."""
+    import pinocchio as pin
+
+    cd = mx.CHAIN6R_DYN
+    t, _ = _chain_tree(cd.chain, cd)
+    m, d = t.model, t.data
+    _, q, qd, qdd = cd.motion()
+    n = q.shape[0]
+    rnea = pin.rnea
+
+    def run():
+        out = np.empty((n, 6))
+        for k, (qk, vk, ak) in enumerate(zip(q, qd, qdd)):
+            out[k] = rnea(m, d, qk, vk, ak)
+        return out
+
+    def outputs(out):
+        return {"tau": out}
+
+    return CaseRun(run, outputs, postures=n, note="rnea per posture from Python")
 
 
 def case_batch(ctx) -> CaseRun:
@@ -319,4 +360,10 @@ CASES = {
     "rssr": case_rssr,
     "chain6r": case_chain,
     "batch": case_batch,
+    "chain6r_dynamics": case_chain_dynamics,
+}
+
+UNSUPPORTED = {
+    "fourbar_forces": "not measured: the four-bar is a closed loop (Pinocchio's rnea is for "
+                      "trees; the case times openimp against its own kinematic sweep)",
 }

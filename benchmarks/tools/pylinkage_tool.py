@@ -188,6 +188,8 @@ def case_million(ctx) -> CaseRun:
 UNSUPPORTED = {
     "rssr": "planar only: pylinkage solves 2D dyads, no spherical joints",
     "chain6r": "planar closed-loop dyads only: no spatial serial chain",
+    "fourbar_forces": "kinematics only: no masses, no force analysis",
+    "chain6r_dynamics": "planar closed-loop dyads only: no spatial serial chain, no dynamics",
 }
 
 CASES = {

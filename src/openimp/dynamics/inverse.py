@@ -205,7 +205,7 @@ def reactions(KP: tuple, DP: tuple, ZP: tuple, rank: int, itol: float, R: np.nda
         for k in range(rank):
             y += X[d.prow[k]] * z.gvar[d.pcol[k]]
         z.Yr[r6] = y
-    Dsc = z.e  # the screw of D_Delta (6 of the m entries)
+    Dsc = z.h6  # the screw of D_Delta (z.e has m = 0 entries when there is no loop)
     for h in range(K.jcode.shape[0]):
         A = d.A[h]
         for comp in range(6):
