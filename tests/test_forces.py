@@ -1113,3 +1113,66 @@ def test_laws_of_time_and_of_joint_variables():
     wB = tr.qd[:, tr.system.var_index("B")]
     np.testing.assert_allclose(F.reaction("B")[:, 5], -0.7 * wB, rtol=0,
                                atol=1e-13 * np.max(np.abs(wB)))
+
+
+# =============================================================================
+# One pass: forces(system, drivers, ...) evaluates every step as the sweep solves it
+# =============================================================================
+
+
+@pytest.mark.parametrize("name", list(NE_CASES))
+def test_one_pass_balances_every_body_and_equals_two_passes(name):
+    """forces(system, drivers, rates=, accels=) solves the sweep and evaluates each step
+    from the same elimination: every body balances (NE_TOL, as above, against its own
+    trajectory), and the results equal forces() of the same sweep solved first, to
+    the posture tolerance (1e-10 internal units: 1e-8 relative)."""
+    s, tr, bodies, comps = _sweep_case(name)
+    sy = tr.system
+    if name == "3R arm":
+        q, qd, qdd = arm_motion(60)
+    else:
+        th, w, al = crank_motion(60)
+        q, qd, qdd = {"A": th}, {"A": w}, {"A": al}
+    F1 = openimp.forces(sy, q, rates=qd, accels=qdd)
+    assert F1.trajectory.complete and F1.nsteps == 60
+    ref = Ref(s, F1.trajectory)
+    for b in bodies:
+        fres, mres, sf, sm = ref.balance(F1, b)
+        if comps == "plane":
+            fres, mres = fres[:, :2], mres[:, 2:]
+        assert np.max(np.abs(fres)) <= NE_TOL * sf, (b, np.max(np.abs(fres)) / sf)
+        assert np.max(np.abs(mres)) <= NE_TOL * sm, (b, np.max(np.abs(mres)) / sm)
+    F2 = openimp.forces(tr)
+    for key, v in F2.drive.items():
+        np.testing.assert_allclose(F1.drive[key], v, rtol=0, atol=1e-8 * np.abs(v).max())
+    for j in sy.joints:
+        a, b = F1.reaction(j), F2.reaction(j)
+        assert np.array_equal(np.isnan(a), np.isnan(b)), j
+        np.testing.assert_allclose(np.nan_to_num(a), np.nan_to_num(b), rtol=0,
+                                   atol=1e-8 * np.nanmax(np.abs(b)))
+    np.testing.assert_allclose(F1.kinetic, F2.kinetic, rtol=1e-8)
+
+
+def test_one_pass_quasi_static_and_with_laws():
+    """Without rates the one-pass analysis is quasi-static (zero rates); a model with a
+    load law is solved first and evaluated after (the law reads the solved motion):
+    both equal the two-pass results."""
+    s = fourbar()
+    sy = s.compile()
+    th = np.linspace(0.1, 2.0, 25)
+    F1 = openimp.forces(sy, {"A": th})
+    F2 = openimp.forces(openimp.sweep(sy, {"A": th}))
+    np.testing.assert_allclose(F1.drive["A.theta"], F2.drive["A.theta"], rtol=0,
+                               atol=1e-8 * np.abs(F2.drive["A.theta"]).max())
+    assert np.all(F1.kinetic == 0.0)
+    m = s.model
+    m.add_spring("LAWSPRING", *s.springs[0][1:3], law=lambda st: 3.0 * st.length ** 2)
+    sy2 = openimp.compile(m)
+    F3 = openimp.forces(sy2, {"A": th}, rates={"A": 1.0})
+    F4 = openimp.forces(openimp.sweep(sy2, {"A": th}, rates={"A": 1.0}))
+    np.testing.assert_allclose(F3.drive["A.theta"], F4.drive["A.theta"], rtol=1e-12)
+    L = np.linalg.norm(F3.trajectory.point(s.springs[0][1])
+                       - F3.trajectory.point(s.springs[0][2]), axis=1)
+    np.testing.assert_allclose(F3.element("LAWSPRING"), 3.0 * L**2, rtol=1e-12)
+    with pytest.raises(openimp.InputError, match="takes no drivers"):
+        openimp.forces(F4.trajectory, {"A": th})

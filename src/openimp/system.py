@@ -171,6 +171,7 @@ DYN_DATA_FIELDS: tuple[Field, ...] = (
           " and the dependent rows' remainders, column by column"),
     Field("Yr", "f", ("n6",), "sum_k Xr[r, prow_k] gvar[pcol_k] of every unit loop row"),
     Field("cols", "i", ("nf",), "the generalized coordinates (columns of W)"),
+    Field("Gf", "f", ("nq", "nf"), "phi' of the generalized coordinates (7.14)"),
     Field("elen", "f", ("ne",), "length between the points of every element"),
     Field("erate", "f", ("ne",), "its rate of change"),
     Field("eforce", "f", ("ne",), "tension of a spring or damper, magnitude of a load"),
@@ -180,6 +181,7 @@ DYN_DATA_FIELDS: tuple[Field, ...] = (
     Field("L3", "f", (3, 4), "top rows of one 4x4 operator (scratch)"),
     Field("P6", "f", (6, 3), "points, velocities and a direction of one element (scratch)"),
     Field("h6", "f", (6,), "one wrench (scratch)"),
+    Field("s6", "f", (3, 6), "three 6-vectors (scratch)"),
 )
 
 KDynData = namedtuple("KDynData", [f.name for f in DYN_DATA_FIELDS])  # type: ignore[misc]

@@ -9,11 +9,20 @@ energies and the power of every load at every step.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
-from openimp.dynamics.inverse import ForceOptions, ForceOut, StepRows, forces_steps
+from openimp.dynamics.inverse import (
+    ForceOptions,
+    ForceOut,
+    StepRows,
+    forces_steps,
+    sweep_forces,
+)
 from openimp.dynamics.laws import law_values
 from openimp.errors import InputError
+from openimp.kinematics.sweep import Drive, Solver, SweepOut, solve_sweep, sweep
 from openimp.results import Forces, Trajectory
 from openimp.system import ELEMENT_KINDS, System, make_data, make_dyn_data, make_state
 
@@ -21,22 +30,46 @@ from openimp.system import ELEMENT_KINDS, System, make_data, make_dyn_data, make
 INDETERMINATE = 1e-4
 
 
-def forces(trajectory: Trajectory, *, reactions: bool = True,
-           indeterminate: float = INDETERMINATE, pivot_tol: float = 1e-10) -> Forces:
+def forces(source: Trajectory | System, drivers: Any = None, rates: Any = None,
+           accels: Any = None, *, reactions: bool = True,
+           indeterminate: float = INDETERMINATE, pivot_tol: float = 1e-10,
+           **sweep_options: Any) -> Forces:
     """Driving forces, joint reactions, element forces, energies and powers along a
-    solved motion (every freedom specified: the drivers, and the free coordinates
-    held as IMP holds them in kinematic mode).
+    motion in which every freedom is specified (the drivers, and the free
+    coordinates held as IMP holds them in kinematic mode).
 
-    Inertia loads come from the trajectory's rates (a sweep given ``rates=`` or
-    ``accels=``, or a motion of time); without rates the motion is taken as
-    quasi-static (IMP's kinematic mode without DATA VELOCITY). ``indeterminate``:
-    the compatibility tolerance (17.18) above which a reaction component is
+    ``source`` is either a solved :class:`~openimp.results.Trajectory` (a sweep
+    with or without rates: without, the motion is quasi-static, as IMP's
+    kinematic mode without DATA VELOCITY), or a :class:`~openimp.system.System`
+    with the arguments of :func:`openimp.sweep` (``drivers``, ``rates``,
+    ``accels`` or ``motion=``/``times=``, and its options): then the sweep is
+    solved and every step's forces are evaluated as it is solved, from the
+    same elimination (one pass; rates 0 where none are given), and the
+    trajectory is ``result.trajectory``.  ``indeterminate``: the
+    compatibility tolerance (17.18) above which a reaction component is
     statically indeterminate (IMP's ZERO (INDETERM)).
     """
-    if not isinstance(trajectory, Trajectory):
-        raise InputError(f"forces() takes the Trajectory of a sweep, got {type(trajectory)!r}")
-    if not (indeterminate > 0 and np.isfinite(indeterminate)):
+    if not (isinstance(indeterminate, float | int) and 0 < indeterminate < np.inf):
         raise InputError(f"indeterminate must be a positive tolerance, got {indeterminate!r}")
+    opt = ForceOptions(float(pivot_tol), float(indeterminate), bool(reactions))
+    if isinstance(source, System):
+        if source.laws:  # laws read the solved motion: solve it first, then evaluate
+            tr = sweep(source, drivers, rates, accels, pivot_tol=pivot_tol, **sweep_options)
+            return forces(tr, reactions=reactions, indeterminate=indeterminate,
+                          pivot_tol=pivot_tol)
+        kernel = _SweepForces(source, opt)
+        tr = solve_sweep(source, drivers, rates, accels, pivot_tol=pivot_tol,
+                         kernel=kernel, **sweep_options)
+        assert kernel.out is not None
+        return _result(source, tr, ForceOut(*(a[:tr.nsteps] for a in kernel.out)),
+                       reactions)
+    if drivers is not None or rates is not None or accels is not None or sweep_options:
+        raise InputError("forces(trajectory) takes no drivers or sweep options: they belong "
+                         "to the sweep that solved the trajectory")
+    if not isinstance(source, Trajectory):
+        raise InputError(f"forces() takes the Trajectory of a sweep or a System, got "
+                         f"{type(source).__name__}")
+    trajectory = source
     system: System = trajectory.system
     Q, QD, QDD = trajectory.internal()
     n, nq = Q.shape
@@ -47,17 +80,44 @@ def forces(trajectory: Trajectory, *, reactions: bool = True,
     generalized = trajectory.free | trajectory.specified[None, :]
     rows = StepRows(np.ascontiguousarray(Q), np.ascontiguousarray(QD),
                     np.ascontiguousarray(QDD), np.ascontiguousarray(generalized), laws)
-    nj, ne = len(system.joints), len(system.elements)
-    out = ForceOut(np.zeros((n, nq)), np.zeros((n, nj, 6)), np.zeros((n, 2)), np.zeros(n),
-                   np.zeros((n, nq)), np.zeros((n, ne)), np.zeros((n, ne)), np.zeros((n, ne)),
-                   np.zeros((n, ne)), np.zeros((n, ne), np.bool_), np.zeros(n, np.int64))
+    out = _allocate(system, n)
     S = make_state(system)
     S.sgc[:] = trajectory.specified
     data = make_data(system, nq)
     dyn = make_dyn_data(system, nq)
-    opt = ForceOptions(float(pivot_tol), float(indeterminate), bool(reactions))
     forces_steps(system.KP, data.DP, system.YP, dyn.ZP, S, system.gen, rows, opt, out)
     return _result(system, trajectory, out, reactions)
+
+
+def _allocate(system: System, n: int) -> ForceOut:
+    """The outputs of ``n`` steps (:class:`~openimp.dynamics.inverse.ForceOut`)."""
+    nq, nj, ne = system.nq, len(system.joints), len(system.elements)
+    return ForceOut(np.zeros((n, nq)), np.zeros((n, nj, 6)), np.zeros((n, 2)), np.zeros(n),
+                    np.zeros((n, nq)), np.zeros((n, ne)), np.zeros((n, ne)),
+                    np.zeros((n, ne)), np.zeros((n, ne)), np.zeros((n, ne), np.bool_),
+                    np.zeros(n, np.int64))
+
+
+class _SweepForces:
+    """The step kernel of a sweep that evaluates the forces of every step as it is
+    solved (:class:`~openimp.kinematics.sweep.StepKernel`)."""
+
+    def __init__(self, system: System, opt: ForceOptions) -> None:
+        self.system = system
+        self.opt = opt
+        self.dyn = make_dyn_data(system, system.nq)
+        self.out: ForceOut | None = None
+
+    def allocate(self, nsteps: int) -> None:
+        self.out = _allocate(self.system, nsteps)
+
+    def run(self, system: System, data: Any, S: Any, drive: Drive, opt: Solver,
+            part: SweepOut, k0: int) -> tuple[int, int]:
+        assert self.out is not None
+        n = drive.values.shape[0]
+        rows = ForceOut(*(a[k0:k0 + n] for a in self.out))
+        return sweep_forces(system.KP, data.DP, S, system.gen, drive, opt, part,
+                            (system.YP, self.dyn.ZP, self.opt, rows))
 
 
 def _loaded_joints(system: System) -> list[tuple[str, int, int]]:
@@ -78,11 +138,11 @@ def _result(system: System, trajectory: Trajectory, out: ForceOut, reactions: bo
     L the length scale) and the result object."""
     Ls = system.length_scale
     e2 = Ls * Ls
-    gen_scale = np.where(np.array(system.var_kinds) == "angle", e2, Ls)
+    gen_scale = e2 / system.var_scale  # moments for angles, forces for lengths
     drive = {}
-    for c in np.flatnonzero(np.any(np.isfinite(out.drive), axis=0)):
+    for c in np.flatnonzero(np.isfinite(out.drive).any(axis=0)):
         drive[system.var_names[c]] = out.drive[:, c] * gen_scale[c]
-    R = out.R.copy()
+    R = out.R  # the outputs are this result's own: scaled in place
     R[..., :3] *= Ls
     R[..., 3:] *= e2
     kinds = system.Y.ekind
@@ -116,5 +176,5 @@ def _result(system: System, trajectory: Trajectory, out: ForceOut, reactions: bo
         return trajectory.posture(b1) @ S1, trajectory.posture(b2) @ S2
 
     return Forces(trajectory, drive, R, frames, out.eforce * escale[None, :],
-                  out.eskip.copy(), out.energy[:, 0] * e2, out.energy[:, 1] * e2, power,
+                  out.eskip, out.energy[:, 0] * e2, out.energy[:, 1] * e2, power,
                   messages, reactions)

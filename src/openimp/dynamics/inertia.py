@@ -98,29 +98,41 @@ def acceleration_rows(V: np.ndarray, A: np.ndarray, L: np.ndarray) -> None:
 def body_inertias(KP: tuple, DP: tuple, YP: tuple, ZP: tuple) -> None:
     """G_b = T_0b J_b T_0b^T for every body (the pseudo-inertia in global axes, 9.7).
 
-    Needs the postures d.T0 (:func:`~openimp.kinematics.position.position`);
-    writes z.Gb (nb x 4 x 4).
+    With T = [[R, p], [0, 1]] and J = [[Sigma, h], [h^T, m]] (second moments,
+    first moments h = m c, mass): G = [[R Sigma R^T + Rh p^T + p (Rh)^T +
+    m p p^T, Rh + m p], [., m]], symmetric.  Needs the postures d.T0
+    (:func:`~openimp.kinematics.position.position`); writes z.Gb (nb x 4 x 4).
+    Massless bodies are skipped (their G stays 0).
     """
     d = data_views(DP)
     y = dyn_views(YP)
     z = dyn_data_views(ZP)
     K = model_views(KP)
+    RS = z.L3  # R Sigma (its first three columns)
     for b in range(K.order.shape[0]):
         J = y.Jb[b]
-        if J[3, 3] == 0.0 and J[0, 0] == 0.0 and J[1, 1] == 0.0 and J[2, 2] == 0.0:
-            continue  # massless: G stays 0 (the diagonal of a pseudo-inertia is >= 0)
+        m = J[3, 3]
+        if m == 0.0 and J[0, 0] == 0.0 and J[1, 1] == 0.0 and J[2, 2] == 0.0:
+            continue  # massless (the diagonal of a pseudo-inertia is >= 0)
         T = d.T0[b]
         G = z.Gb[b]
-        for i in range(4):
-            for j in range(4):
-                s = 0.0
-                for k in range(4):
-                    tk = T[i, k]
-                    if tk == 0.0:
-                        continue
-                    for m in range(4):
-                        s += tk * J[k, m] * T[j, m]
-                G[i, j] = s
+        for i in range(3):
+            for j in range(3):
+                RS[i, j] = T[i, 0] * J[0, j] + T[i, 1] * J[1, j] + T[i, 2] * J[2, j]
+        for i in range(3):
+            rh = T[i, 0] * J[0, 3] + T[i, 1] * J[1, 3] + T[i, 2] * J[2, 3]
+            G[i, 3] = rh + m * T[i, 3]
+            G[3, i] = G[i, 3]
+        for i in range(3):
+            pi = T[i, 3]
+            for j in range(i, 3):
+                pj = T[j, 3]
+                v = RS[i, 0] * T[j, 0] + RS[i, 1] * T[j, 1] + RS[i, 2] * T[j, 2]
+                # Rh p^T + p Rh^T + m p p^T = g p^T + p g^T - m p p^T with g = Rh + m p
+                v += G[i, 3] * pj + pi * G[j, 3] - m * pi * pj
+                G[i, j] = v
+                G[j, i] = v
+        G[3, 3] = m
 
 
 @njit(nrt=False)
@@ -137,6 +149,11 @@ def inertia_wrenches(KP: tuple, DP: tuple, ZP: tuple) -> float:
     L = z.L3
     ke = 0.0
     for b in range(K.order.shape[0]):
+        G = z.Gb[b]
+        if G[3, 3] == 0.0 and G[0, 0] == 0.0 and G[1, 1] == 0.0 and G[2, 2] == 0.0:
+            for i in range(6):
+                z.Fin[b, i] = 0.0
+            continue  # massless: no inertia
         acceleration_rows(d.V[b], d.Ab[b], L)
         pseudo_wrench(z.Gb[b], L, z.Fin[b])
         screw_rows(d.V[b], L)

@@ -32,6 +32,7 @@ from openimp.dynamics.loads import applied_loads
 from openimp.kinematics.elimination import derivatives, eliminate, jacobian, replay
 from openimp.kinematics.position import position
 from openimp.kinematics.rates import accelerations, drift, velocity
+from openimp.kinematics.sweep import Drive, Solver, SweepOut, sweep_steps
 from openimp.system import data_views, dyn_data_views, model_views
 
 
@@ -78,21 +79,32 @@ class ForceOut(NamedTuple):
 
 
 @njit(nrt=False)
-def evaluate(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | None,
-             ptol: float) -> tuple[int, float, float, float]:
-    """All stages of one state S (q, qd, qdd of every joint variable; sgc) up to z.Fb.
+def evaluate(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, ptol: float) -> int:
+    """The kinematic stages of one state S (q, qd, qdd of every joint variable; sgc):
+    postures, screws, the elimination, velocities and drift (ch 5-8).
 
-    Returns (rank of the elimination, kinetic energy, potential energy, power
-    of gravity).  S.q is not changed (no Newton step: the posture is the
-    solved one).
+    Returns the rank of the elimination.  S.q is not changed (no Newton step:
+    the posture is the solved one).  A sweep has all of these at the end of
+    each step, and calls :func:`force_step` directly.
     """
-    z = dyn_data_views(ZP)
-    K = model_views(KP)
     position(KP, DP, S, gen, 1)
     jacobian(KP, DP, S, gen)
     rank = eliminate(DP, S.sgc, ptol)[0]
     velocity(KP, DP, S)
     drift(KP, DP, S, gen)
+    return rank
+
+
+@njit(nrt=False)
+def body_wrenches(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple
+                  ) -> tuple[float, float, float]:
+    """Body accelerations (8.52), the inertia wrench (10.8) and applied wrench of every
+    body and z.Fb = inertia - applied.  Needs the kinematic stages at S
+    (:func:`evaluate`, or the end of a sweep step).  Returns (kinetic energy,
+    potential energy, power of gravity).
+    """
+    z = dyn_data_views(ZP)
+    K = model_views(KP)
     accelerations(KP, DP, S)
     body_inertias(KP, DP, YP, ZP)
     ke = inertia_wrenches(KP, DP, ZP)
@@ -100,7 +112,7 @@ def evaluate(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarr
     for b in range(K.order.shape[0]):
         for i in range(6):
             z.Fb[b, i] = z.Fin[b, i] - z.Fext[b, i]
-    return rank, ke, pe, gp
+    return ke, pe, gp
 
 
 @njit(nrt=False)
@@ -150,12 +162,12 @@ def drive_forces(DP: tuple, ZP: tuple, rank: int, nf: int, out: np.ndarray) -> N
     """tau_j = sum_b W_{b,j} . Fb_b - sum_h phi'_{h,j} fq_h = sum_a phi'_{a,j} gvar_a for the
     first nf columns of z.cols (11.14), into out[z.cols[j]] (out: (nq,)).
 
-    Needs :func:`transmitted`; computes phi' (7.14) into d.G.
+    Needs :func:`transmitted`; computes phi' (7.14) into z.Gf (d.G is a sweep's
+    predictor).
     """
-    d = data_views(DP)
     z = dyn_data_views(ZP)
     cols = z.cols[:nf]
-    G = d.G[:, :nf]
+    G = z.Gf[:, :nf]
     derivatives(DP, rank, cols, G)
     for j in range(nf):
         t = 0.0
@@ -181,9 +193,11 @@ def reactions(KP: tuple, DP: tuple, ZP: tuple, rank: int, itol: float, R: np.nda
     (:func:`transmitted`).
 
     The replay is linear in C': it is done once per step for the 6 unit rows
-    of every loop (z.Xr, z.Yr), and each of the 6 nj components combines them
-    with the screw of its D_Delta: F = D . (Wsum_Delta - sum_i L(i,Delta)
-    Yr_i), remainders -sum_i L(i,Delta) sum_r D_r Xr_(i,r).
+    of every loop (z.Xr, z.Yr), and each component combines them with the
+    screw of its D_Delta: F = D . (Wsum_Delta - sum_i L(i,Delta) Yr_i),
+    remainders -sum_i L(i,Delta) sum_r D_r Xr_(i,r).  The six D_Delta of a
+    joint are the unit screws of its frame, so the six components of a joint
+    come from one wrench (:func:`_components`).
     """
     K = model_views(KP)
     d = data_views(DP)
@@ -205,48 +219,93 @@ def reactions(KP: tuple, DP: tuple, ZP: tuple, rank: int, itol: float, R: np.nda
         for k in range(rank):
             y += X[d.prow[k]] * z.gvar[d.pcol[k]]
         z.Yr[r6] = y
-    Dsc = z.h6  # the screw of D_Delta (z.e has m = 0 entries when there is no loop)
+    W = z.h6  # the wrench each component pairs with, per joint
     for h in range(K.jcode.shape[0]):
         A = d.A[h]
-        for comp in range(6):
-            ax = comp % 3
-            # the screw of D_Delta: (axis, 0) for a force, (o x axis, axis) for a moment
-            if comp < 3:
-                for i in range(3):
-                    Dsc[i] = A[i, ax]
-                    Dsc[3 + i] = 0.0
-            else:
-                ox, oy, oz = A[0, 3], A[1, 3], A[2, 3]
-                sx, sy, sz = A[0, ax], A[1, ax], A[2, ax]
-                Dsc[0] = oy * sz - oz * sy
-                Dsc[1] = oz * sx - ox * sz
-                Dsc[2] = ox * sy - oy * sx
-                Dsc[3] = sx
-                Dsc[4] = sy
-                Dsc[5] = sz
-            F = 0.0
+        ox, oy, oz = A[0, 3], A[1, 3], A[2, 3]
+        # the six D_Delta of joint h are (a_k, 0) and (o x a_k, a_k) with a_k the axes
+        # (columns of A): a component is a_k . W_v, or a_k . (W_w + W_v x o), with
+        # W = Wsum_h - sum_i L(i,h) Yr_i
+        for r in range(6):
+            W[r] = z.Wsum[h, r]
+        inloop = False
+        for i in range(nl):
+            lih = K.L[i, h]
+            if lih != 0:
+                inloop = True
+                for r in range(6):
+                    W[r] -= lih * z.Yr[6 * i + r]
+        _components(A, ox, oy, oz, W, R[h])
+        if not inloop:
+            continue
+        # the remainders (17.18) of the six components, row by unused row
+        X, Xc, worst = z.s6[0], z.s6[1], z.s6[2]
+        for k in range(6):
+            worst[k] = 0.0
+        for u in range(m):
+            if used[u]:
+                continue
             for r in range(6):
-                F += Dsc[r] * z.Wsum[h, r]
-            worst = 0.0
+                X[r] = 0.0
             for i in range(nl):
                 lih = K.L[i, h]
                 if lih == 0:
                     continue
                 for r in range(6):
-                    F -= lih * Dsc[r] * z.Yr[6 * i + r]
-            for u in range(m):
-                if used[u]:
-                    continue
-                res = 0.0
-                for i in range(nl):
-                    lih = K.L[i, h]
-                    if lih == 0:
-                        continue
-                    for r in range(6):
-                        res += lih * Dsc[r] * z.Xr[6 * i + r, u]
-                if abs(res) > worst:
-                    worst = abs(res)
-            R[h, comp] = np.nan if worst > itol else F
+                    X[r] += lih * z.Xr[6 * i + r, u]
+            _components(A, ox, oy, oz, X, Xc)
+            for k in range(6):
+                if abs(Xc[k]) > worst[k]:
+                    worst[k] = abs(Xc[k])
+        for k in range(6):
+            if worst[k] > itol:
+                R[h, k] = np.nan
+
+
+@njit(nrt=False, inline="always")
+def _components(A: np.ndarray, ox: float, oy: float, oz: float, W: np.ndarray,
+                out: np.ndarray) -> None:
+    """The power of the six unit fictitious screws of a joint frame A (origin o) on the
+    wrench W = (W_v, W_w): out[k] = a_k . W_v, out[3 + k] = a_k . (W_w + W_v x o)."""
+    mx = W[3] + W[1] * oz - W[2] * oy
+    my = W[4] + W[2] * ox - W[0] * oz
+    mz = W[5] + W[0] * oy - W[1] * ox
+    for k in range(3):
+        out[k] = A[0, k] * W[0] + A[1, k] * W[1] + A[2, k] * W[2]
+        out[3 + k] = A[0, k] * mx + A[1, k] * my + A[2, k] * mz
+
+
+@njit(nrt=False)
+def force_step(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, rank: int, opt: tuple,
+               out: tuple, s: int) -> None:
+    """Every force output of row ``s`` of ``out`` (:class:`ForceOut`) at the state S, whose
+    kinematic stages are done (:func:`evaluate`) and whose generalized coordinates
+    are S.sgc | S.fgc.  ``opt``: :class:`ForceOptions`.
+    """
+    z = dyn_data_views(ZP)
+    nq = S.q.shape[0]
+    ke, pe, gp = body_wrenches(KP, DP, YP, ZP, S)
+    out.rank[s] = rank
+    out.energy[s, 0] = ke
+    out.energy[s, 1] = pe
+    out.gpower[s] = gp
+    nf = 0
+    for c in range(nq):
+        out.drive[s, c] = np.nan
+        out.qpower[s, c] = z.fq[c] * S.qd[c]
+        if S.sgc[c] or S.fgc[c]:
+            z.cols[nf] = c
+            nf += 1
+    transmitted(KP, DP, ZP)
+    drive_forces(DP, ZP, rank, nf, out.drive[s])
+    if opt.reactions:
+        reactions(KP, DP, ZP, rank, opt.itol, out.R[s])
+    for i in range(z.eforce.shape[0]):
+        out.elen[s, i] = z.elen[i]
+        out.erate[s, i] = z.erate[i]
+        out.eforce[s, i] = z.eforce[i]
+        out.epower[s, i] = z.epower[i]
+        out.eskip[s, i] = z.eskip[i]
 
 
 @njit(nrt=False)
@@ -265,27 +324,42 @@ def forces_steps(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
             S.q[c] = rows.Q[s, c]
             S.qd[c] = rows.QD[s, c]
             S.qdd[c] = rows.QDD[s, c]
+            S.fgc[c] = rows.generalized[s, c]
         for k in range(rows.laws.shape[1]):
             z.law[k] = rows.laws[s, k]
-        rank, ke, pe, gp = evaluate(KP, DP, YP, ZP, S, gen, opt.ptol)
-        out.rank[s] = rank
-        out.energy[s, 0] = ke
-        out.energy[s, 1] = pe
-        out.gpower[s] = gp
-        nf = 0
-        for c in range(nq):
-            out.drive[s, c] = np.nan
-            out.qpower[s, c] = z.fq[c] * S.qd[c]
-            if rows.generalized[s, c]:
-                z.cols[nf] = c
-                nf += 1
-        transmitted(KP, DP, ZP)
-        drive_forces(DP, ZP, rank, nf, out.drive[s])
-        if opt.reactions:
-            reactions(KP, DP, ZP, rank, opt.itol, out.R[s])
-        for i in range(z.eforce.shape[0]):
-            out.elen[s, i] = z.elen[i]
-            out.erate[s, i] = z.erate[i]
-            out.eforce[s, i] = z.eforce[i]
-            out.epower[s, i] = z.epower[i]
-            out.eskip[s, i] = z.eskip[i]
+        rank = evaluate(KP, DP, S, gen, opt.ptol)
+        force_step(KP, DP, YP, ZP, S, rank, opt, out, s)
+
+
+#: the sweep's step loop, inlined here: called once per step, a regular call would pass
+#: every array of its arguments at every step
+_one_step = njit(nrt=False, inline="always")(getattr(sweep_steps, "py_func", sweep_steps))
+
+
+@njit(nrt=False)
+def sweep_forces(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, drive: tuple,
+                 opt: tuple, part: tuple, dyn: tuple) -> tuple[int, int]:
+    """A sweep (:func:`~openimp.kinematics.sweep.sweep_steps`, same arguments and result)
+    that evaluates the forces of every step as it is solved, from the same final
+    elimination and rates: no second pass over the kinematics.
+
+    ``dyn`` = (YP, ZP, :class:`ForceOptions`, :class:`ForceOut` rows of these
+    steps).  ``opt.rates`` must be on (zero driver rates: quasi-static).
+    """
+    YP, ZP, fopt, fout = dyn
+    n = drive.values.shape[0]
+    resume = opt.resume
+    for k in range(n):
+        one = Drive(drive.cols, drive.values[k:k + 1], drive.rates[k:k + 1],
+                    drive.accels[k:k + 1])
+        row = SweepOut(part.Q[k:k + 1], part.QD[k:k + 1], part.QDD[k:k + 1],
+                       part.quality[k:k + 1], part.rank[k:k + 1], part.fgc[k:k + 1],
+                       part.iters[k:k + 1], part.cons[k:k + 1], part.jump[k:k + 1])
+        o = Solver(opt.tol, opt.ptol, opt.maxit, opt.maxhalve, opt.rates, resume)
+        done, st = _one_step(KP, DP, S, gen, one, o, row)
+        if done == 0:
+            return k, st
+        resume = True
+        # the step left its posture, screws, elimination, velocities and drift in DP
+        force_step(KP, DP, YP, ZP, S, part.rank[k], fopt, fout, k)
+    return n, 0

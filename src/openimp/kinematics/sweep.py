@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
-from typing import Any, NamedTuple
+from typing import Any, NamedTuple, Protocol
 
 import numpy as np
 
@@ -431,6 +431,19 @@ def failure_message(
     )
 
 
+class StepKernel(Protocol):
+    """A kernel that solves the steps of a sweep and does more at each of them (the force
+    analysis of :mod:`openimp.dynamics` evaluates every step as it is solved):
+    ``allocate(nsteps)`` before the sweep, then ``run(system, data, S, drive, opt,
+    part, k0)`` in place of :func:`sweep_steps` for the steps from k0 on, with
+    the same result."""
+
+    def allocate(self, nsteps: int) -> None: ...
+
+    def run(self, system: System, data: Any, S: Any, drive: Drive, opt: Solver,
+            part: SweepOut, k0: int) -> tuple[int, int]: ...
+
+
 def sweep(
     system: System,
     drivers: Mapping[Any, Sequence[float] | np.ndarray] | None = None,
@@ -483,6 +496,34 @@ def sweep(
     :data:`CHUNK`); Ctrl-C then ends the sweep with every step solved before
     (:attr:`Trajectory.interrupted`).
     """
+    return solve_sweep(system, drivers, rates, accels, motion=motion, times=times, tol=tol,
+                       pivot_tol=pivot_tol, maxit=maxit, maxhalve=maxhalve,
+                       hold_free=hold_free, start=start, steps=steps, branch=branch,
+                       at_limit=at_limit, progress=progress)
+
+
+def solve_sweep(
+    system: System,
+    drivers: Mapping[Any, Sequence[float] | np.ndarray] | None = None,
+    rates: Mapping[Any, Sequence[float] | np.ndarray] | None = None,
+    accels: Mapping[Any, Sequence[float] | np.ndarray] | None = None,
+    *,
+    motion: Mapping[Any, Any] | None = None,
+    times: Sequence[float] | np.ndarray | None = None,
+    tol: float = 1e-10,
+    pivot_tol: float = 1e-10,
+    maxit: int = 25,
+    maxhalve: int = 12,
+    hold_free: bool = False,
+    start: np.ndarray | None = None,
+    steps: int | None = None,
+    branch: str = "smooth",
+    at_limit: str = "stop",
+    progress: Callable[[int, int], None] | None = None,
+    kernel: StepKernel | None = None,
+) -> Trajectory:
+    """:func:`sweep`, with the steps solved by ``kernel`` (:class:`StepKernel`) when given
+    (rates are then always computed: zero where none are given)."""
     from openimp.motion import as_motion
 
     check_solver_options(tol, pivot_tol, maxit, maxhalve)
@@ -506,7 +547,7 @@ def sweep(
     dcols, dvals = _driver_columns(system, drivers, steps)
     nq = system.nq
     nsteps = dvals.shape[0]
-    want = rates is not None or accels is not None
+    want = rates is not None or accels is not None or kernel is not None
     rd = _rate_values(system, dcols, nsteps, rates, "rate")
     ad = _rate_values(system, dcols, nsteps, accels, "acceleration")
     S = make_state(system, start_posture(system, start))
@@ -530,9 +571,11 @@ def sweep(
     out = SweepOut(np.zeros((nsteps, nq)), np.zeros((nr, nq)), np.zeros((nr, nq)),
                    np.zeros(nsteps), np.zeros(nsteps, np.int64), np.zeros((nsteps, nq), np.bool_),
                    np.zeros(nsteps, np.int64), np.zeros(nr), np.zeros(nsteps))
+    if kernel is not None:
+        kernel.allocate(nsteps)
     run = _Run(system, data, S, dcols, np.ascontiguousarray(dvals), rd, ad, out,
                Solver(float(tol), float(pivot_tol), int(maxit), int(maxhalve), want),
-               rank0, quality0)
+               rank0, quality0, kernel)
     done, status = run.solve(branch, at_limit, progress)
     names = [system.var_names[c] for c in dcols]
     if run.interrupted:
@@ -563,8 +606,10 @@ class _Run:
 
     def __init__(self, system: System, data: Any, S: Any, dcols: np.ndarray,
                  values: np.ndarray, rd: np.ndarray, ad: np.ndarray, out: SweepOut,
-                 opt: Solver, rank0: int, quality0: float) -> None:
+                 opt: Solver, rank0: int, quality0: float, kernel: StepKernel | None = None
+                 ) -> None:
         self.system, self.data, self.S, self.out, self.opt = system, data, S, out, opt
+        self.kernel = kernel
         self.values, self.rd, self.ad = values.copy(), rd.copy(), ad.copy()
         self.rank0, self.quality0 = rank0, quality0
         #: (first step, driver columns, specified columns) of every segment
@@ -601,6 +646,9 @@ class _Run:
             self.segments.append((k0, self.cols.copy(), self.S.sgc.copy()))
         drive = Drive(self.cols, np.ascontiguousarray(self.values[sl]),
                       np.ascontiguousarray(self.rd[sl]), np.ascontiguousarray(self.ad[sl]))
+        if self.kernel is not None:
+            return self.kernel.run(self.system, self.data, self.S, drive,
+                                   self.opt._replace(resume=resume), part, k0)
         return sweep_steps(self.system.KP, self.data.DP, self.S, self.system.gen, drive,
                            self.opt._replace(resume=resume), part)
 
