@@ -272,7 +272,12 @@ def case_fourbar_forces(ctx) -> CaseRun:
     def kin():
         return _complete(openimp.sweep(s, drv, rates=rates, accels=accels))
 
-    def run():
+    def run():  # one pass: each step's forces from the sweep's own elimination
+        f = openimp.forces(s, drv, rates=rates, accels=accels)
+        _complete(f.trajectory)
+        return f
+
+    def two_pass():
         return openimp.forces(kin())
 
     stored = kin()
@@ -286,6 +291,8 @@ def case_fourbar_forces(ctx) -> CaseRun:
 
     return CaseRun(run, outputs, postures=mx.NSTEPS, variants=[
         Variant("kinematic", "kinematic sweep with rates only (fourbar_rates)", kin),
+        Variant("two_pass", "sweep, then forces() of the stored trajectory", two_pass,
+                outputs),
         Variant("forces_only", "forces() alone on a stored trajectory", forces_only, outputs),
     ])
 
@@ -317,11 +324,15 @@ def case_chain_dynamics(ctx) -> CaseRun:
     def kin():
         return _complete(openimp.sweep(s, drv, rates=rates, accels=accels))
 
-    def run():
-        return openimp.forces(kin(), reactions=False)
+    def run():  # one pass
+        f = openimp.forces(s, drv, rates=rates, accels=accels, reactions=False)
+        _complete(f.trajectory)
+        return f
 
     def run_reactions():
-        return openimp.forces(kin(), reactions=True)
+        f = openimp.forces(s, drv, rates=rates, accels=accels, reactions=True)
+        _complete(f.trajectory)
+        return f
 
     stored = kin()
 

@@ -149,6 +149,12 @@ DYN_FIELDS: tuple[Field, ...] = (
     Field("efree", "f", ("ne",), "free length of a spring"),
     Field("edir", "f", ("ne", 3), "fixed global direction of a force or torque (unit)"),
     Field("elaw", "i", ("ne",), "law slot of an element, -1 for a linear one"),
+    Field("gscale", "f", ("nq",), "model units of a generalized force per internal one:"
+          " L^2 for an angle, L for a length (L = length_scale)"),
+    Field("escale", "f", ("ne",), "model units of an element's tension or magnitude: L^2"
+          " for a torque, L otherwise"),
+    Field("lscale", "f", (1,), "L = length_scale: lengths and forces times L, moments,"
+          " energies and powers times L^2"),
 )
 
 KDyn = namedtuple("KDyn", [f.name for f in DYN_FIELDS])  # type: ignore[misc]
@@ -812,6 +818,9 @@ def _dynamic_group(
         if e.law is not None:
             elaw[i] = len(laws)
             laws.append((e.kind, e.name, e.law, -1))
+    gscale = np.array([Ls * Ls if k == "angle" else Ls for k in var_kinds])
+    escale = np.where(ekind == TORQUE, Ls * Ls, Ls)
     dyn = dict(Jb=Jb, grav=grav, qk=qk, qfree=qfree, qc=qc, qf=qf, qlaw=qlaw, ekind=ekind,
-               ept=ept, ebody=ebody, evalue=evalue, efree=efree, edir=edir, elaw=elaw)
+               ept=ept, ebody=ebody, evalue=evalue, efree=efree, edir=edir, elaw=elaw,
+               gscale=gscale, escale=escale, lscale=np.array([Ls]))
     return dyn, tuple(e.name for e in elems), tuple(laws), warnings

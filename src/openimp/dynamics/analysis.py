@@ -93,7 +93,7 @@ def _allocate(system: System, n: int) -> ForceOut:
     """The outputs of ``n`` steps (:class:`~openimp.dynamics.inverse.ForceOut`)."""
     nq, nj, ne = system.nq, len(system.joints), len(system.elements)
     return ForceOut(np.zeros((n, nq)), np.zeros((n, nj, 6)), np.zeros((n, 2)), np.zeros(n),
-                    np.zeros((n, nq)), np.zeros((n, ne)), np.zeros((n, ne)),
+                    np.zeros(n), np.zeros((n, nq)), np.zeros((n, ne)), np.zeros((n, ne)),
                     np.zeros((n, ne)), np.zeros((n, ne)), np.zeros((n, ne), np.bool_),
                     np.zeros(n, np.int64))
 
@@ -134,30 +134,16 @@ def _loaded_joints(system: System) -> list[tuple[str, int, int]]:
 
 
 def _result(system: System, trajectory: Trajectory, out: ForceOut, reactions: bool) -> Forces:
-    """Model units (lengths times L, forces times L, moments and energies times L^2 with
-    L the length scale) and the result object."""
-    Ls = system.length_scale
-    e2 = Ls * Ls
-    gen_scale = e2 / system.var_scale  # moments for angles, forces for lengths
-    drive = {}
-    for c in np.flatnonzero(np.isfinite(out.drive).any(axis=0)):
-        drive[system.var_names[c]] = out.drive[:, c] * gen_scale[c]
-    R = out.R  # the outputs are this result's own: scaled in place
-    R[..., :3] *= Ls
-    R[..., 3:] *= e2
-    kinds = system.Y.ekind
-    escale = np.where(kinds == ELEMENT_KINDS.index("torque"), e2, Ls)
-    power = {"gravity": out.gpower * e2}
+    """The result object of the outputs (already in model units)."""
+    drive = {system.var_names[c]: out.drive[:, c]
+             for c in np.flatnonzero(np.isfinite(out.drive).any(axis=0))}
+    power = {"gravity": out.gpower}
     for i, name in enumerate(system.elements):
-        power[name] = out.epower[:, i] * e2
+        power[name] = out.epower[:, i]
     for j, a0, nv in _loaded_joints(system):
-        power[f"joint {j}"] = out.qpower[:, a0:a0 + nv].sum(axis=1) * e2
-    QD = trajectory.internal()[1]
-    if QD is not None:
-        dr = np.nan_to_num(out.drive) * QD
-        power["drive"] = dr.sum(axis=1) * e2
-    else:
-        power["drive"] = np.zeros(out.rank.shape[0])
+        power[f"joint {j}"] = out.qpower[:, a0:a0 + nv].sum(axis=1)
+    power["drive"] = out.dpower
+    kinds = system.Y.ekind
     messages = []
     for i in (np.flatnonzero(out.eskip.any(axis=0)) if out.eskip.size else ()):
         name = system.elements[i]
@@ -167,6 +153,8 @@ def _result(system: System, trajectory: Trajectory, out: ForceOut, reactions: bo
             messages.append(f"{kind} {name}: its two points coincide at {skipped.size} "
                             f"step(s) (first at step {int(skipped[0])}); it is skipped there")
 
+    Ls = system.length_scale
+
     def frames(h: int) -> tuple[np.ndarray, np.ndarray]:
         b1, b2 = system.bodies[int(system.K.jb1[h])], system.bodies[int(system.K.jb2[h])]
         S1 = system.K.S1[h].copy()
@@ -175,6 +163,5 @@ def _result(system: System, trajectory: Trajectory, out: ForceOut, reactions: bo
         S2[:3, 3] *= Ls
         return trajectory.posture(b1) @ S1, trajectory.posture(b2) @ S2
 
-    return Forces(trajectory, drive, R, frames, out.eforce * escale[None, :],
-                  out.eskip, out.energy[:, 0] * e2, out.energy[:, 1] * e2, power,
-                  messages, reactions)
+    return Forces(trajectory, drive, out.R, frames, out.eforce, out.eskip, out.energy[:, 0],
+                  out.energy[:, 1], power, messages, reactions)

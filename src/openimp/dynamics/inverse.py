@@ -33,7 +33,7 @@ from openimp.kinematics.elimination import derivatives, eliminate, jacobian, rep
 from openimp.kinematics.position import position
 from openimp.kinematics.rates import accelerations, drift, velocity
 from openimp.kinematics.sweep import Drive, Solver, SweepOut, sweep_steps
-from openimp.system import data_views, dyn_data_views, model_views
+from openimp.system import data_views, dyn_data_views, dyn_views, model_views
 
 
 class StepRows(NamedTuple):
@@ -58,17 +58,19 @@ class ForceOptions(NamedTuple):
 
 
 class ForceOut(NamedTuple):
-    """Per step (internal units): drive (nq: the force of every generalized coordinate,
+    """Per step, in MODEL units: drive (nq: the force of every generalized coordinate,
     NaN elsewhere), R (nj x 6: u v w forces, u v w moments of the first body on the
     second, in the joint frame on the first body, about its origin; NaN where
     indeterminate), energy (2: kinetic, potential), gpower (power of gravity),
-    qpower (nq: power of the joint loads), the element arrays (ne each: length,
-    rate, tension or magnitude, power, skipped) and rank."""
+    dpower (power of the drives), qpower (nq: power of the joint loads), the
+    element arrays (ne each: length, rate, tension or magnitude, power, skipped)
+    and rank."""
 
     drive: np.ndarray
     R: np.ndarray
     energy: np.ndarray
     gpower: np.ndarray
+    dpower: np.ndarray
     qpower: np.ndarray
     elen: np.ndarray
     erate: np.ndarray
@@ -283,28 +285,42 @@ def force_step(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, rank: int, 
     are S.sgc | S.fgc.  ``opt``: :class:`ForceOptions`.
     """
     z = dyn_data_views(ZP)
+    y = dyn_views(YP)
     nq = S.q.shape[0]
+    L1 = y.lscale[0]
+    L2 = L1 * L1
     ke, pe, gp = body_wrenches(KP, DP, YP, ZP, S)
     out.rank[s] = rank
-    out.energy[s, 0] = ke
-    out.energy[s, 1] = pe
-    out.gpower[s] = gp
+    out.energy[s, 0] = ke * L2
+    out.energy[s, 1] = pe * L2
+    out.gpower[s] = gp * L2
     nf = 0
     for c in range(nq):
         out.drive[s, c] = np.nan
-        out.qpower[s, c] = z.fq[c] * S.qd[c]
+        out.qpower[s, c] = z.fq[c] * S.qd[c] * L2
         if S.sgc[c] or S.fgc[c]:
             z.cols[nf] = c
             nf += 1
     transmitted(KP, DP, ZP)
     drive_forces(DP, ZP, rank, nf, out.drive[s])
+    dp = 0.0
+    for j in range(nf):
+        c = z.cols[j]
+        dp += out.drive[s, c] * S.qd[c]
+        out.drive[s, c] *= y.gscale[c]
+    out.dpower[s] = dp * L2
     if opt.reactions:
-        reactions(KP, DP, ZP, rank, opt.itol, out.R[s])
+        R = out.R[s]
+        reactions(KP, DP, ZP, rank, opt.itol, R)
+        for h in range(R.shape[0]):
+            for k in range(3):
+                R[h, k] *= L1
+                R[h, 3 + k] *= L2
     for i in range(z.eforce.shape[0]):
-        out.elen[s, i] = z.elen[i]
-        out.erate[s, i] = z.erate[i]
-        out.eforce[s, i] = z.eforce[i]
-        out.epower[s, i] = z.epower[i]
+        out.elen[s, i] = z.elen[i] * L1
+        out.erate[s, i] = z.erate[i] * L1
+        out.eforce[s, i] = z.eforce[i] * y.escale[i]
+        out.epower[s, i] = z.epower[i] * L2
         out.eskip[s, i] = z.eskip[i]
 
 
