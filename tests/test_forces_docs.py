@@ -30,7 +30,7 @@ def test_forces_docs_run_and_are_right(tmp_path, monkeypatch, capsys) -> None:
     monkeypatch.chdir(tmp_path)
     ns: dict = {"__name__": "docs_forces"}
     for block in code:
-        exec(compile(block, str(DOC), "exec"), ns)  # noqa: S102 - the page itself
+        exec(compile(block, str(DOC), "exec"), ns)
     # --- the engine: torque by virtual work of the piston
     r, l, omega, th = ns["r"], ns["l"], ns["omega"], ns["theta"]
     s, c = np.sin(th), np.cos(th)

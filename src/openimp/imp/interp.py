@@ -39,6 +39,7 @@ import numpy as np
 from openimp import limits
 from openimp.errors import InputError
 from openimp.files import check_readable, quote_path
+from openimp.imp.dyndata import UNIT_MASS_DEFAULT, DynamicData, add_dynamic_data
 from openimp.imp.expr import Expression
 from openimp.imp.jointmap import IMP_JOINTS, bevel_frames, placement_frames
 from openimp.imp.parser import JOINT_DOF, Statement
@@ -210,7 +211,8 @@ class State:
     requests: list[Request] = field(default_factory=list)
     graphics: Graphics = field(default_factory=Graphics)
     extras: dict[str, Any] = field(default_factory=dict)
-    unit_mass: float = 0.0025901
+    #: UNIT (MASS): one user mass unit in force s^2/length (IMP's default: lbm, 1/386.088)
+    unit_mass: float = UNIT_MASS_DEFAULT
     #: at a change point: the smooth branch or the other (REMARK OPENIMP BRANCH = ...)
     branch: str = "smooth"
     #: at a dead point of an input: stop or switch (REMARK OPENIMP DEAD POINT = ...)
@@ -755,9 +757,17 @@ class Interpreter:
         shaped = {s for v in self.state.extras.get("shapes", {}).values() for s in v}
         if f["solid"] not in shaped:
             raise self.error(f"solid {f['solid']} is in no SHAPE statement yet")
+        if f["density"] < 0:
+            raise self.error("the density must not be negative")
         self.state.extras.setdefault("densities", []).append(
             {"solid": f["solid"], "density": f["density"] * self.state.unit_mass,
              "where": stmt.where})
+        link = next(lk for lk, v in self.state.extras.get("shapes", {}).items()
+                    if f["solid"] in v)
+        self.warn(f"the mass properties of solid {f['solid']} are not computed: it is read "
+                  "from a solid file (SOLID READ), and openimp does not integrate solid files "
+                  f"yet; link {link} gets no mass from it.  Give its mass with DATA MASS and "
+                  f"DATA INERTIA ({link}, ...) instead")
 
     def _mass_frame(self, f: dict[str, Any]) -> None:
         self._link(f["link"])
@@ -767,6 +777,12 @@ class Interpreter:
     def _data_mass(self, stmt: Statement) -> None:
         f = stmt.fields
         self._mass_frame(f)
+        if f["mass"] < 0:
+            raise self.error(f"the mass of link {f['link']} must not be negative, got "
+                             f"{f['mass']:g}")
+        if self.state.extras.get("inertias", {}).pop(f["link"], None) is not None:
+            self.msg(f"The inertia data of link {f['link']} are discarded: DATA MASS replaces "
+                     "the mass data with a point mass; give DATA INERTIA again after it.")
         self._extra_data(stmt, "masses", f["link"], {
             "frame": f["joint"] or "LINK", "mass": f["mass"] * self.state.unit_mass,
             "center": tuple(f["center"]), "where": stmt.where}, f"Mass data of link {f['link']}")
@@ -1271,6 +1287,8 @@ class Built:
     #: joint -> (ImpJoint, JointDef, IMP frame 1 in body-1 coordinates, frame 2 in body 2)
     joints: dict[str, tuple[Any, JointDef, np.ndarray, np.ndarray]]
     messages: list[str]
+    #: the mass and load data put on the model (VALUE laws, deleted elements)
+    dyn: DynamicData = field(default_factory=DynamicData)
 
 
 def _locate(exc: InputError, where: Where) -> InputError:
@@ -1336,6 +1354,7 @@ def build_model(state: State, where: Where) -> Built:
         T = state.links[pd.link].frame
         g = np.zeros(3) if pd.local is None else (T @ np.append(pd.local, 1.0))[:3]
         model.add_point(name, pd.link, g)
+    dyn = add_dynamic_data(state, model, joints, messages)
     extras = {k: copy.deepcopy(v) for k, v in state.extras.items()}
     extras["inputs"] = copy.deepcopy(state.inputs)
     extras["find"] = state.find
@@ -1344,7 +1363,7 @@ def build_model(state: State, where: Where) -> Built:
     extras["unit_mass"] = state.unit_mass
     extras["graphics"] = copy.deepcopy(state.graphics)
     model.extras = extras
-    return Built(model, joints, messages)
+    return Built(model, joints, messages, dyn)
 
 
 def compile_built(built: Built, state: State, where: Where) -> Any:

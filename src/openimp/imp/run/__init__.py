@@ -6,6 +6,8 @@
   postures and rates); the static and dynamic runners will sit beside it;
 * :mod:`~openimp.imp.run.solution`: what a run solved (a trajectory and how
   the run ended);
+* :mod:`~openimp.imp.run.forces`: the force analysis of a solved kinematic run
+  in IMP's kinematic-mode convention (FORCE requests, FORCE(...) in VALUEs);
 * :mod:`~openimp.imp.run.quantities`: tables and PRINT text from a solution;
 * :mod:`~openimp.imp.run.output`: the deck's events in order, each EXECUTE
   through the runner of its mode (:data:`~openimp.imp.run.output.SOLVERS`),

@@ -25,6 +25,7 @@ from openimp.files import OutputFolder, printable, slug
 from openimp.imp.interp import DEFAULT_TITLE, RunSpec, State, Where, build_model
 from openimp.imp.listing import banner, format_listing, format_store, step_text
 from openimp.imp.run import kinematic
+from openimp.imp.run.forces import safe_compute, wants_forces
 from openimp.imp.run.prepare import (
     Prepared,
     needs,
@@ -35,7 +36,13 @@ from openimp.imp.run.prepare import (
     trailing_requests,
     validate,
 )
-from openimp.imp.run.quantities import _joint_frames, _value_stop, make_table, print_step
+from openimp.imp.run.quantities import (
+    _joint_frames,
+    _resolver,
+    _value_stop,
+    make_table,
+    print_step,
+)
 from openimp.imp.run.solution import Solution
 from openimp.results import Run, Table
 
@@ -178,14 +185,24 @@ def execute_run(spec: RunSpec, ctx: Context) -> Run:
         notes.append(text)
     if not (sol.stop or sol.interrupted) and sol.n:
         sol = _value_stop(prep, sol, notes)
+    items = prep.items
+    force_failure = ""
+    if sol.n and wants_forces(prep):
+        laws = prep.built.dyn.laws
+        if laws is not None:
+            laws.resolve_at = (lambda k, s=sol: _resolver(prep, s, k, s.times[k], None, k,
+                                                          notes))
+        sol.forces, force_failure = safe_compute(prep, sol, notes)
+        if sol.forces is None:
+            items = [it for it in items if it.request.quantity != "FORCE"]
     # tables
     tables: dict[tuple[str, str, str], Table] = {}
-    for it in prep.items:
+    for it in items:
         t = make_table(prep, sol, it, notes)
         tables[(it.request.family, it.request.quantity, t.item)] = t
         run.tables.append(t)
     # PRINT output per position
-    print_items = [it for it in prep.items if it.request.family == "PRINT"]
+    print_items = [it for it in items if it.request.family == "PRINT"]
     if print_items:
         for k in range(sol.n):
             ctx.say(f"step = {step_text(sol.times[k])}" if stepped(state)
@@ -201,6 +218,8 @@ def execute_run(spec: RunSpec, ctx: Context) -> Run:
         ctx.stopped = ctx.stopped or sol.end
     if sol.message:
         run.failure = f"{spec.where[0]}:{spec.where[1]}: EXECUTE: {sol.message}"
+    elif force_failure:
+        run.failure = force_failure
     run.interrupted = sol.interrupted
     # listings
     for t in run.tables:

@@ -6,7 +6,7 @@ anything is solved, and the output times.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -57,19 +57,64 @@ class Prepared:
     drivers: list[Driver]
     items: list[Item]
     unsupported: list[Request]
+    #: located messages of request items that are not produced (a FORCE request naming
+    #: a spring or damper deleted at EXECUTE)
+    skipped: list[str] = field(default_factory=list)
 
 
-def _request_items(state: State, built: Built) -> tuple[list[Item], list[Request]]:
+def _force_items(req: Request, state: State, built: Built, items: list[Item],
+                 skipped: list[str], seen: set[tuple[str, str, str, str]]) -> None:
+    """The items of a FORCE request: joints, springs and dampers (reference §9)."""
+    springs = state.extras.get("springs", {})
+    dampers = state.extras.get("dampers", {})
+    model = built.model
+    deleted = built.dyn.deleted
+    names: list[str] = []
+    if req.all:
+        names += list(model.joints)
+        names += [n for n in springs if ("spring", n) not in deleted]
+        names += [n for n in dampers if ("damper", n) not in deleted]
+    names += req.names
+    for n in names:
+        if n in model.joints:
+            kind = "joint"
+        elif n in springs:
+            kind = "spring"
+        elif n in dampers:
+            kind = "damper"
+        else:
+            what = ("a point" if n in state.points else "a link" if n in state.links else
+                    "a force element" if n in state.extras.get("forces", {}) else
+                    "a torque element" if n in state.extras.get("torques", {}) else
+                    "not defined by EXECUTE")
+            raise InputError(f"{req.keyword} statement: {n} is {what}; {req.family} FORCE "
+                             "takes joints, springs and dampers", req.where)
+        if (kind, n) in deleted:
+            skipped.append(f"{req.where[0]}:{req.where[1]}: {req.keyword} ({n}) is not "
+                           f"produced: {deleted[(kind, n)]}")
+            continue
+        key = (req.family, req.quantity, kind, n)
+        if key not in seen:
+            seen.add(key)
+            items.append(Item(req, kind, n))
+
+
+def _request_items(state: State, built: Built
+                   ) -> tuple[list[Item], list[Request], list[str]]:
     items: list[Item] = []
     unsupported: list[Request] = []
+    skipped: list[str] = []
     seen: set[tuple[str, str, str, str]] = set()
     springs = state.extras.get("springs", {})
     dampers = state.extras.get("dampers", {})
     model = built.model
     for req in state.requests:
         q = req.quantity
-        if q in ("FORCE", "FREQUENCY", "DYNAMICS"):
+        if q in ("FREQUENCY", "DYNAMICS"):
             unsupported.append(req)
+            continue
+        if q == "FORCE":
+            _force_items(req, state, built, items, skipped, seen)
             continue
         if q == "HEADING":
             key = (req.family, q, "heading", "")
@@ -123,7 +168,7 @@ def _request_items(state: State, built: Built) -> tuple[list[Item], list[Request
             if key not in seen:
                 seen.add(key)
                 items.append(Item(req, kind, n))
-    return items, unsupported
+    return items, unsupported, skipped
 
 
 def _drivers(state: State, built: Built, system: Any) -> list[Driver]:
@@ -160,7 +205,7 @@ def validate(spec: RunSpec) -> Prepared:
         ex.load_tables()  # a TABLE file that cannot be read is an input error
     built = build_model(state, spec.where)
     system = compile_built(built, state, spec.where)
-    items, unsupported = _request_items(state, built)
+    items, unsupported, skipped = _request_items(state, built)
     drivers = _drivers(state, built, system) if spec.mode == "kinematic" else []
     if drivers:
         cols = np.array([d.column for d in drivers], np.int64)
@@ -174,7 +219,7 @@ def validate(spec: RunSpec) -> Prepared:
             where = drivers[-1].inp.where
             raise InputError(f"EXECUTE: {exc} (the input motions are given by DATA POSITION / "
                              "DATA MOTION statements)", where) from None
-    prep = Prepared(spec, built, system, drivers, items, unsupported)
+    prep = Prepared(spec, built, system, drivers, items, unsupported, skipped)
     if spec.mode == "kinematic":
         _check_size(prep)
     spec._prepared = prep  # type: ignore[attr-defined]
@@ -186,7 +231,8 @@ def not_produced(spec: RunSpec) -> tuple[str | None, list[str]]:
 
     Returns the reason why the whole run produces nothing (an EXECUTE in a mode
     openimp has not built), or None, and one located message per request that
-    the run cannot answer (FORCE, FREQUENCY, DYNAMICS).  The run reports
+    the run cannot answer (FREQUENCY, DYNAMICS; FORCE of a spring or damper deleted
+    at EXECUTE).  The run reports
     exactly these (``Run.failure``, ``Run.unsupported``) and ``openimp check``
     lists them, so the two never disagree.  Raises :class:`InputError` as
     :func:`validate` does.
@@ -200,12 +246,13 @@ def not_produced(spec: RunSpec) -> tuple[str | None, list[str]]:
                 + f"): {what} analysis is not built yet in openimp; this run "
                 "produces no results"), []
     texts = []
-    for req in validate(spec).unsupported:
+    prep = validate(spec)
+    for req in prep.unsupported:
         texts.append(f"{req.where[0]}:{req.where[1]}: {req.keyword} is not produced: "
-                     + ("force analysis" if req.quantity == "FORCE" else
-                        "linearized vibration analysis" if req.quantity == "FREQUENCY" else
+                     + ("linearized vibration analysis" if req.quantity == "FREQUENCY" else
                         "transfer-function analysis")
                      + " is not built yet in openimp (the other requests are)")
+    texts.extend(prep.skipped)
     return None, texts
 
 
@@ -301,6 +348,8 @@ def needs(prep: Prepared, nsteps: int = 1) -> tuple[list[str], list[str]]:
             bodies.add(it.name)
         elif it.kind == "joint":
             bodies.add(model.joints[it.name].body1)
+            if it.request.quantity == "FORCE":
+                bodies.add(model.joints[it.name].body2)
         elif it.kind == "point":
             points.add(it.name)
         elif it.kind in ("spring", "damper"):

@@ -93,9 +93,13 @@ def _resolver(prep: Prepared, sol: Solution, k: int, t: float, motions: Any,
     def resolve(kind: str, name: str | None, comp: int) -> float:
         if kind == "TIME":
             return t
+        if kind == "FORCE" and sol.forces is not None and 0 <= k < sol.n:
+            return sol.forces.value(name or "", comp, k)
         if kind in ("FORCE", "USER"):
             label = "FORCE(...)" if kind == "FORCE" else f"USER({name})"
-            note = (f"{label} in a VALUE is undefined: force analysis is not built yet"
+            note = (f"{label} in a VALUE is undefined where the VALUE is needed before the "
+                    "forces of the step are known (a DATA MOTION, or the data of a spring, "
+                    "damper or load: the forces follow from them, a circular evaluation)"
                     if kind == "FORCE" else f"{label} is undefined: no USER function is linked")
             if note not in notes:
                 notes.append(note)
@@ -212,6 +216,8 @@ def make_table(prep: Prepared, sol: Solution, it: Item, notes: list[str]) -> Tab
         units += ["", "1/s", "1/s^2"]
         data += [vals[:, 0], vals[:, 1], vals[:, 2]]
         return tables_from_columns(request, f"value {it.name}", cols, units, data)
+    if q == "FORCE":
+        return _force_table(sol, it, request, cols, units, data)
     which = {"POSITION": 0, "VELOCITY": 1, "ACCEL": 2}[q]
     if it.kind == "joint":
         ij, p, v, a = _joint_vars(prep, sol, it.name)
@@ -277,6 +283,37 @@ def make_table(prep: Prepared, sol: Solution, it: Item, notes: list[str]) -> Tab
     return tables_from_columns(request, f"{it.kind} {it.name}", cols, units, data)
 
 
+#: the components of a joint load (reference §2.3) and their units
+FORCE_COLUMNS = ("FX", "FY", "FZ", "MX", "MY", "MZ")
+_FORCE, _MOMENT = "force", "force*length"
+
+
+def _force_table(sol: Solution, it: Item, request: str, cols: list[str], units: list[str],
+                 data: list[np.ndarray]) -> Table:
+    """The table of a FORCE request item (IMP's kinematic-mode convention, see
+    :mod:`openimp.imp.run.forces`): a joint's FX FY FZ MX MY MZ, a spring's or
+    damper's axial force (tension positive); NaN where indeterminate."""
+    res = sol.forces
+    if it.kind == "joint":
+        R = res.joints[it.name] if res is not None else np.full((sol.n, 6), _NAN)
+        for c, lab in enumerate(FORCE_COLUMNS):
+            cols.append(lab)
+            units.append(_FORCE if c < 3 else _MOMENT)
+            data.append(R[:, c])
+    else:
+        f = res.elements[(it.kind, it.name)] if res is not None else np.full(sol.n, _NAN)
+        cols.append("Force")
+        units.append(_FORCE)
+        data.append(f)
+    return tables_from_columns(request, f"{it.kind} {it.name}", cols, units, data)
+
+
+def _magnitude(v: Any) -> float:
+    """|v| with the indeterminate (NaN) components counted as zero, as IMP does."""
+    a = np.asarray(v, dtype=float)
+    return float(np.sqrt(np.sum(np.where(np.isfinite(a), a, 0.0) ** 2)))
+
+
 def _f4(x: float) -> str:
     return "????" if not math.isfinite(x) else f"{x:.4f}"
 
@@ -303,10 +340,18 @@ def print_step(prep: Prepared, sol: Solution, k: int, tables: dict[tuple[str, st
             joint, var = vn.split(".", 1)
             c = prep.system.var_index((joint, var))
             kind = prep.system.var_kinds[c]
-            pos = sol.q[k, c]
+            pos, vel, acc = sol.q[k, c], sol.qd[k, c], sol.qdd[k, c]
             idx = prep.system.var_names[prep.system.joint_vars(joint)].index(vn) + 1
+            ij = prep.built.joints[joint][0] if joint in prep.built.joints else None
+            imp = [i for i, d in enumerate(ij.drive) if d is not None and d[0] == idx - 1] \
+                if ij is not None else []
+            if imp:  # the IMP joint variable this openimp variable is (sign, numbering)
+                _ij, p, v, a = _joint_vars(prep, sol.rows(k), joint)
+                i = imp[0]
+                pos, vel, acc, idx = p[0, i], v[0, i], a[0, i], i + 1
+                kind = ij.var_kinds[i]
             out.append(f"{joint} {idx} imp {_f4(math.degrees(pos) if kind == 'angle' else pos)}"
-                       f" {_f3(sol.qd[k, c])} {_f3(sol.qdd[k, c])}")
+                       f" {_f3(vel)} {_f3(acc)}")
         out.append(f"Degree of freedom = {int(sol.mobility[k])}. Quality index = "
                    f"{sol.quality[k]:.2e} with {int(sol.iterations[k])} iterations.")
     for q, title in (("POSITION", "Position Results:"), ("VELOCITY", "Velocity Results:"),
@@ -342,6 +387,22 @@ def print_step(prep: Prepared, sol: Solution, k: int, tables: dict[tuple[str, st
             else:
                 lab = "Spg." if it.kind == "spring" else "Dmp."
                 out.append(f"{lab} {it.name} " + " ".join(_f4(x) for x in row[1:]))
+    forces = [it for it in items if it.request.quantity == "FORCE"]
+    if forces:
+        out.append("Force Results:")
+        out.append("Magnitude X Y Z")
+        for it in forces:
+            row = tables[("PRINT", "FORCE", f"{it.kind} {it.name}")].rows[k]
+            if it.kind == "joint":
+                jd = prep.built.joints[it.name][1]
+                out.append(f"through Joint {it.name} from Link {jd.link1} onto Link "
+                           f"{jd.link2} :")
+                F, M = row[1:4], row[4:7]
+                out.append(f"Forc {_f3(_magnitude(F))} " + " ".join(_f3(x) for x in F))
+                out.append(f"Torq {_f3(_magnitude(M))} " + " ".join(_f3(x) for x in M))
+            else:
+                lab = "Spg." if it.kind == "spring" else "Dmp."
+                out.append(f"{lab} {it.name} {_f3(row[1])}")
     vals = [it for it in items if it.kind == "value"]
     if vals:
         out.append("Value Results:")

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -25,7 +26,7 @@ class Solution:
     every solved step; ``message``: why the run stopped early ("" when it did
     not); ``interrupted``: the user pressed Ctrl-C; ``stop``: what IMP says
     when a VALUE evaluated RETURN or END; ``end``: END was evaluated, no
-    further EXECUTE runs.
+    further EXECUTE runs; ``forces``: the loads, once computed.
     """
 
     traj: Trajectory
@@ -34,6 +35,9 @@ class Solution:
     interrupted: bool = False
     stop: str = ""
     end: bool = False
+    #: the force analysis of the run (:class:`~openimp.imp.run.forces.ForceResults`),
+    #: when a request needs it
+    forces: Any = None
 
     @classmethod
     def of(cls, parts: Sequence[Trajectory], empty: Trajectory, times: np.ndarray,
