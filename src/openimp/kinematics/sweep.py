@@ -376,24 +376,29 @@ def _rate_values(
         return out
     pos = {int(c): j for j, c in enumerate(dcols)}
     seen: set[int] = set()
+    lookup = system.var_lookup
     for key, v in given.items():
-        c = system.var_index(key)
+        c = lookup.get(key) if isinstance(key, str) else None
+        if c is None:
+            c = system.var_index(key)
         if c in seen:
             raise InputError(f"{what} of {key!r} is given twice")
         seen.add(c)
         if c not in pos:
             raise InputError(f"{what} given for {key!r}, which is not one of the drivers")
         try:
-            a = np.atleast_1d(np.asarray(v, dtype=float))
+            a = np.asarray(v, dtype=float)
         except (TypeError, ValueError):
             raise InputError(f"{what} of {key!r} must be numbers, got {v!r:.60}") from None
         if a.size == 1:
-            a = np.full(nsteps, float(a[0]))
-        if a.shape != (nsteps,) or not np.all(np.isfinite(a)):
+            a = a.reshape(1)
+        if (a.shape != (nsteps,) and a.shape != (1,)) or not np.isfinite(a).all():
             raise InputError(
                 f"{what} of {key!r}: give one finite value or {nsteps} values (one per step)"
             )
-        out[:, pos[c]] = a / system.var_scale[c]
+        col = out[:, pos[c]]
+        col[:] = a  # one value broadcasts to every step
+        col /= system.var_scale[c]
     return out
 
 
