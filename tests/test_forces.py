@@ -1176,3 +1176,27 @@ def test_one_pass_quasi_static_and_with_laws():
     np.testing.assert_allclose(F3.element("LAWSPRING"), 3.0 * L**2, rtol=1e-12)
     with pytest.raises(openimp.InputError, match="takes no drivers"):
         openimp.forces(F4.trajectory, {"A": th})
+
+
+def test_open_chain_fully_driven_needs_no_sweep():
+    """A model without loops whose every joint variable is driven has nothing to solve:
+    forces(system, ...) evaluates the given motion directly; the same forces as the
+    sweep followed by forces(), to round-off (the postures are the given values)."""
+    s = arm()
+    sy = s.compile()
+    q, qd, qdd = arm_motion(40)
+    F1 = openimp.forces(sy, q, rates=qd, accels=qdd)
+    tr = openimp.sweep(sy, q, rates=qd, accels=qdd)
+    F2 = openimp.forces(tr)
+    for key, v in F2.drive.items():
+        np.testing.assert_allclose(F1.drive[key], v, rtol=0, atol=1e-12 * np.abs(v).max())
+    for j in sy.joints:
+        np.testing.assert_allclose(F1.reaction(j), F2.reaction(j), rtol=0,
+                                   atol=1e-12 * np.abs(F2.reaction(j)).max())
+    np.testing.assert_allclose(F1.trajectory.q, tr.q, atol=1e-14)
+    np.testing.assert_allclose(F1.trajectory.point_velocity(next(iter(s.points))),
+                               tr.point_velocity(next(iter(s.points))), atol=1e-12)
+    ref = Ref(s, F1.trajectory)
+    for b in ("L1", "L2", "L3"):
+        fres, mres, sf, sm = ref.balance(F1, b)
+        assert np.max(np.abs(fres)) <= NE_TOL * sf and np.max(np.abs(mres)) <= NE_TOL * sm

@@ -22,7 +22,15 @@ from openimp.dynamics.inverse import (
 )
 from openimp.dynamics.laws import law_values
 from openimp.errors import InputError
-from openimp.kinematics.sweep import Drive, Solver, SweepOut, solve_sweep, sweep
+from openimp.kinematics.sweep import (
+    Drive,
+    Solver,
+    SweepOut,
+    motion_inputs,
+    solve_sweep,
+    sweep,
+)
+from openimp.kinematics.track import tracker
 from openimp.results import Forces, Trajectory
 from openimp.system import ELEMENT_KINDS, System, make_data, make_dyn_data, make_state
 
@@ -57,6 +65,9 @@ def forces(source: Trajectory | System, drivers: Any = None, rates: Any = None,
             tr = sweep(source, drivers, rates, accels, pivot_tol=pivot_tol, **sweep_options)
             return forces(tr, reactions=reactions, indeterminate=indeterminate,
                           pivot_tol=pivot_tol)
+        direct = _open_chain(source, drivers, rates, accels, sweep_options, opt)
+        if direct is not None:
+            return direct
         kernel = _SweepForces(source, opt)
         tr = solve_sweep(source, drivers, rates, accels, pivot_tol=pivot_tol,
                          kernel=kernel, **sweep_options)
@@ -87,6 +98,39 @@ def forces(source: Trajectory | System, drivers: Any = None, rates: Any = None,
     dyn = make_dyn_data(system, nq)
     forces_steps(system.KP, data.DP, system.YP, dyn.ZP, S, system.gen, rows, opt, out)
     return _result(system, trajectory, out, reactions)
+
+
+def _open_chain(system: System, drivers: Any, rates: Any, accels: Any,
+                sweep_options: dict[str, Any], opt: ForceOptions) -> Forces | None:
+    """A model without loops (nor Euler-Rodrigues rows) with every joint variable driven
+    has nothing to solve: every posture is given.  Its forces then come straight
+    from the given motion (the inverse dynamics of a robot arm, book 10.17-10.18),
+    without the sweep's predictor and Newton.  None when that does not apply."""
+    if system.nrows or not drivers or sweep_options.keys() - {"motion", "times"}:
+        return None
+    inp = motion_inputs(system, drivers, rates, accels, sweep_options.get("motion"),
+                        sweep_options.get("times"), None)
+    nq = system.nq
+    if inp.cols.size != nq:
+        return None
+    n = inp.values.shape[0]
+    Q, QD, QDD = np.empty((n, nq)), np.empty((n, nq)), np.empty((n, nq))
+    Q[:, inp.cols] = inp.values
+    QD[:, inp.cols] = inp.rates
+    QDD[:, inp.cols] = inp.accels
+    tr = Trajectory(system, Q, np.ones(n), np.zeros(n, np.int64), np.zeros((n, nq), bool),
+                    np.zeros(n, np.int64), [system.var_names[c] for c in inp.cols],
+                    tracker=tracker(system), sgc=np.ones(nq, bool))
+    tr.rank_ref, tr.quality_ref = 0, 1.0
+    tr.set_rates(QD, QDD, np.zeros(n))
+    tr.time = inp.times
+    rows = StepRows(Q, QD, QDD, np.ones((n, nq), bool), np.zeros((n, 1)))
+    out = _allocate(system, n)
+    S = make_state(system)
+    S.sgc[:] = True
+    forces_steps(system.KP, make_data(system, nq).DP, system.YP,
+                 make_dyn_data(system, nq).ZP, S, system.gen, rows, opt, out)
+    return _result(system, tr, out, opt.reactions)
 
 
 def _allocate(system: System, n: int) -> ForceOut:

@@ -436,6 +436,49 @@ def failure_message(
     )
 
 
+class MotionInputs(NamedTuple):
+    """The drivers of a motion as given to :func:`sweep`, checked: ``cols`` (nd,) their
+    columns, ``values``, ``rates``, ``accels`` (steps x nd, internal units; rates
+    0 where none are given), ``times`` (steps,) or None, ``with_rates``: whether
+    rates or accelerations were given."""
+
+    cols: np.ndarray
+    values: np.ndarray
+    rates: np.ndarray
+    accels: np.ndarray
+    times: np.ndarray | None
+    with_rates: bool
+
+
+def motion_inputs(
+    system: System, drivers: Mapping[Any, Any] | None, rates: Mapping[Any, Any] | None,
+    accels: Mapping[Any, Any] | None, motion: Mapping[Any, Any] | None,
+    times: Sequence[float] | np.ndarray | None, steps: int | None,
+) -> MotionInputs:
+    """The drivers of :func:`sweep` (values, or motions of time at ``times``) checked and
+    in internal units; input errors name the driver."""
+    from openimp.motion import as_motion
+
+    tarr = None
+    if motion is not None:
+        if drivers is not None or rates is not None or accels is not None:
+            raise InputError("give either motion= (with times=) or drivers/rates/accels, not both")
+        if times is None:
+            raise InputError("motion= needs times=: the instants at which to solve")
+        tarr = np.asarray(times, dtype=float)
+        drivers, rates, accels = {}, {}, {}
+        for key, mo in motion.items():
+            p, v, a = as_motion(mo)(tarr)
+            drivers[key], rates[key], accels[key] = p, v, a
+    if drivers is None:
+        raise InputError("give drivers (joint -> values) or motion= with times=")
+    dcols, dvals = _driver_columns(system, drivers, steps)
+    nsteps = dvals.shape[0]
+    rd = _rate_values(system, dcols, nsteps, rates, "rate")
+    ad = _rate_values(system, dcols, nsteps, accels, "acceleration")
+    return MotionInputs(dcols, dvals, rd, ad, tarr, rates is not None or accels is not None)
+
+
 class StepKernel(Protocol):
     """A kernel that solves the steps of a sweep and does more at each of them (the force
     analysis of :mod:`openimp.dynamics` evaluates every step as it is solved):
@@ -529,32 +572,16 @@ def solve_sweep(
 ) -> Trajectory:
     """:func:`sweep`, with the steps solved by ``kernel`` (:class:`StepKernel`) when given
     (rates are then always computed: zero where none are given)."""
-    from openimp.motion import as_motion
-
     check_solver_options(tol, pivot_tol, maxit, maxhalve)
     if branch not in ("smooth", "other"):
         raise InputError(f"branch must be 'smooth' or 'other', got {branch!r}")
     if at_limit not in ("stop", "switch"):
         raise InputError(f"at_limit must be 'stop' or 'switch', got {at_limit!r}")
-    tarr = None
-    if motion is not None:
-        if drivers is not None or rates is not None or accels is not None:
-            raise InputError("give either motion= (with times=) or drivers/rates/accels, not both")
-        if times is None:
-            raise InputError("motion= needs times=: the instants at which to solve")
-        tarr = np.asarray(times, dtype=float)
-        drivers, rates, accels = {}, {}, {}
-        for key, mo in motion.items():
-            p, v, a = as_motion(mo)(tarr)
-            drivers[key], rates[key], accels[key] = p, v, a
-    if drivers is None:
-        raise InputError("give drivers (joint -> values) or motion= with times=")
-    dcols, dvals = _driver_columns(system, drivers, steps)
+    inp = motion_inputs(system, drivers, rates, accels, motion, times, steps)
+    dcols, dvals, rd, ad, tarr = inp.cols, inp.values, inp.rates, inp.accels, inp.times
     nq = system.nq
     nsteps = dvals.shape[0]
-    want = rates is not None or accels is not None or kernel is not None
-    rd = _rate_values(system, dcols, nsteps, rates, "rate")
-    ad = _rate_values(system, dcols, nsteps, accels, "acceleration")
+    want = inp.with_rates or kernel is not None
     S = make_state(system, start_posture(system, start))
     S.sgc[dcols] = True
     # one scratch for the driver check and the sweep
@@ -615,7 +642,9 @@ class _Run:
                  ) -> None:
         self.system, self.data, self.S, self.out, self.opt = system, data, S, out, opt
         self.kernel = kernel
-        self.values, self.rd, self.ad = values.copy(), rd.copy(), ad.copy()
+        self.isdriver = data.view("isdriver")
+        # fresh arrays of motion_inputs, ours to change (a driver switch rewrites them)
+        self.values, self.rd, self.ad = values, rd, ad
         self.rank0, self.quality0 = rank0, quality0
         #: (first step, driver columns, specified columns) of every segment
         self.segments: list[tuple[int, np.ndarray, np.ndarray]] = []
@@ -642,15 +671,17 @@ class _Run:
         """Solve steps k0..k1-1 from the state's posture (or, with ``resume``, where the
         last call stopped); (steps solved from k0, status)."""
         o = self.out
-        sl = slice(k0, k1)
-        rs = sl if o.QD.shape[0] else slice(0, 0)
-        part = SweepOut(o.Q[sl], o.QD[rs], o.QDD[rs], o.quality[sl], o.rank[sl], o.fgc[sl],
-                        o.iters[sl], o.cons[rs], o.jump[sl])
         if not resume:
-            self.data.view("isdriver")[:] = False
+            self.isdriver[:] = False
             self.segments.append((k0, self.cols.copy(), self.S.sgc.copy()))
-        drive = Drive(self.cols, np.ascontiguousarray(self.values[sl]),
-                      np.ascontiguousarray(self.rd[sl]), np.ascontiguousarray(self.ad[sl]))
+        if k0 == 0 and k1 == self.values.shape[0]:  # the whole sweep in one call
+            part, drive = o, Drive(self.cols, self.values, self.rd, self.ad)
+        else:  # rows of C-ordered arrays: contiguous views
+            sl = slice(k0, k1)
+            rs = sl if o.QD.shape[0] else slice(0, 0)
+            part = SweepOut(o.Q[sl], o.QD[rs], o.QDD[rs], o.quality[sl], o.rank[sl],
+                            o.fgc[sl], o.iters[sl], o.cons[rs], o.jump[sl])
+            drive = Drive(self.cols, self.values[sl], self.rd[sl], self.ad[sl])
         if self.kernel is not None:
             return self.kernel.run(self.system, self.data, self.S, drive,
                                    self.opt._replace(resume=resume), part, k0)
