@@ -392,13 +392,18 @@ def _rate_values(
             raise InputError(f"{what} of {key!r} must be numbers, got {v!r:.60}") from None
         if a.size == 1:
             a = a.reshape(1)
-        if (a.shape != (nsteps,) and a.shape != (1,)) or not np.isfinite(a).all():
+        if a.shape != (nsteps,) and a.shape != (1,):
             raise InputError(
                 f"{what} of {key!r}: give one finite value or {nsteps} values (one per step)"
             )
-        col = out[:, pos[c]]
-        col[:] = a  # one value broadcasts to every step
-        col /= system.var_scale[c]
+        out[:, pos[c]] = a  # one value broadcasts to every step
+    if not np.isfinite(out).all():  # one check for all: then find the culprit
+        bad = int(np.flatnonzero(~np.isfinite(out).all(axis=0))[0])
+        key = next(k for k in given if system.var_index(k) == int(dcols[bad]))
+        raise InputError(
+            f"{what} of {key!r}: give one finite value or {nsteps} values (one per step)"
+        )
+    out /= system.var_scale[dcols]
     return out
 
 
