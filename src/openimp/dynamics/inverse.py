@@ -32,7 +32,7 @@ from openimp.dynamics.loads import applied_loads
 from openimp.kinematics.elimination import derivatives, eliminate, jacobian, replay
 from openimp.kinematics.position import position
 from openimp.kinematics.rates import accelerations, drift, velocity
-from openimp.kinematics.sweep import Drive, Solver, SweepOut, sweep_steps
+from openimp.kinematics.sweep import Solver, sweep_steps
 from openimp.system import data_views, dyn_data_views, dyn_views, model_views
 
 
@@ -347,11 +347,6 @@ def forces_steps(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
         force_step(KP, DP, YP, ZP, S, rank, opt, out, s)
 
 
-#: the sweep's step loop, inlined here: called once per step, a regular call would pass
-#: every array of its arguments at every step
-_one_step = njit(nrt=False, inline="always")(getattr(sweep_steps, "py_func", sweep_steps))
-
-
 @njit(nrt=False)
 def sweep_forces(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, drive: tuple,
                  opt: tuple, part: tuple, dyn: tuple) -> tuple[int, int]:
@@ -366,14 +361,9 @@ def sweep_forces(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, drive: 
     n = drive.values.shape[0]
     resume = opt.resume
     for k in range(n):
-        one = Drive(drive.cols, drive.values[k:k + 1], drive.rates[k:k + 1],
-                    drive.accels[k:k + 1])
-        row = SweepOut(part.Q[k:k + 1], part.QD[k:k + 1], part.QDD[k:k + 1],
-                       part.quality[k:k + 1], part.rank[k:k + 1], part.fgc[k:k + 1],
-                       part.iters[k:k + 1], part.cons[k:k + 1], part.jump[k:k + 1])
-        o = Solver(opt.tol, opt.ptol, opt.maxit, opt.maxhalve, opt.rates, resume)
-        done, st = _one_step(KP, DP, S, gen, one, o, row)
-        if done == 0:
+        o = Solver(opt.tol, opt.ptol, opt.maxit, opt.maxhalve, opt.rates, resume, k, k + 1)
+        done, st = sweep_steps(KP, DP, S, gen, drive, o, part)
+        if done == k:
             return k, st
         resume = True
         # the step left its posture, screws, elimination, velocities and drift in DP

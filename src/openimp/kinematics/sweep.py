@@ -56,7 +56,8 @@ class Solver(NamedTuple):
     iteration cap, the number of step halvings allowed, whether rates are wanted, and
     whether the step loop resumes where its last call stopped (the data keeps the
     last posture and the tangents: a long sweep is solved in chunks, between which
-    progress is told and Ctrl-C heard, exactly as in one call)."""
+    progress is told and Ctrl-C heard, exactly as in one call), and the range of
+    steps to solve."""
 
     tol: float
     ptol: float
@@ -64,6 +65,10 @@ class Solver(NamedTuple):
     maxhalve: int
     rates: bool
     resume: bool = False
+    #: solve only the steps first..last-1 of the drive (last -1: to its end), for a
+    #: caller that does more between steps (the force analysis of one pass)
+    first: int = 0
+    last: int = -1
 
 
 class SweepOut(NamedTuple):
@@ -214,7 +219,8 @@ def sweep_steps(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, drive: t
         for c in range(nq):
             d.qlast[c] = q[c]
         has_prev = False
-    for k in range(drive.values.shape[0]):
+    kend = drive.values.shape[0] if opt.last < 0 else opt.last
+    for k in range(opt.first, kend):
         frac = 1.0
         done = False
         total_it = 0
@@ -303,7 +309,7 @@ def sweep_steps(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, drive: t
             out.fgc[k, c] = S.fgc[c]
     d.loop[0] = rank_ref
     d.loop[1] = 1 if has_prev else 0
-    return drive.values.shape[0], OK
+    return kend, OK
 
 
 # =============================================================================
