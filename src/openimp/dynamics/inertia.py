@@ -154,12 +154,19 @@ def inertia_wrenches(KP: tuple, DP: tuple, ZP: tuple) -> float:
             for i in range(6):
                 z.Fin[b, i] = 0.0
             continue  # massless: no inertia
-        acceleration_rows(d.V[b], d.Ab[b], L)
-        pseudo_wrench(z.Gb[b], L, z.Fin[b])
-        screw_rows(d.V[b], L)
-        pseudo_wrench(z.Gb[b], L, z.Fb[b])  # momentum, scratch
-        for i in range(6):
-            ke += 0.5 * d.V[b, i] * z.Fb[b, i]
+        V = d.V[b]
+        acceleration_rows(V, d.Ab[b], L)
+        pseudo_wrench(G, L, z.Fin[b])
+        # 1/2 integral |w x r + v|^2 dm with G = [[Sigma, h], [h^T, m]]:
+        # 1/2 m |v|^2 + v . (w x h) + 1/2 (|w|^2 tr Sigma - w^T Sigma w)
+        vx, vy, vz, wx, wy, wz = V[0], V[1], V[2], V[3], V[4], V[5]
+        hx, hy, hz = G[0, 3], G[1, 3], G[2, 3]
+        wSw = (wx * (G[0, 0] * wx + G[0, 1] * wy + G[0, 2] * wz)
+               + wy * (G[1, 0] * wx + G[1, 1] * wy + G[1, 2] * wz)
+               + wz * (G[2, 0] * wx + G[2, 1] * wy + G[2, 2] * wz))
+        ke += (0.5 * G[3, 3] * (vx * vx + vy * vy + vz * vz)
+               + vx * (wy * hz - wz * hy) + vy * (wz * hx - wx * hz) + vz * (wx * hy - wy * hx)
+               + 0.5 * ((wx * wx + wy * wy + wz * wz) * (G[0, 0] + G[1, 1] + G[2, 2]) - wSw))
     return ke
 
 

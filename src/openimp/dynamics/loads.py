@@ -89,6 +89,10 @@ def applied_loads(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple
     for b in range(K.order.shape[0]):
         G = z.Gb[b]
         F = z.Fext[b]
+        if G[3, 3] == 0.0:  # no mass, no weight
+            for k in range(6):
+                F[k] = 0.0
+            continue
         F[0] = G[3, 3] * g[0]
         F[1] = G[3, 3] * g[1]
         F[2] = G[3, 3] * g[2]
