@@ -159,6 +159,9 @@ def check_solver_options(tol: Any, pivot_tol: Any, maxit: Any, maxhalve: Any) ->
     zero and negative tolerances are refused, so that a bad option is never
     blamed on the mechanism and no sweep runs for ever.
     """
+    if (tol, pivot_tol, maxit, maxhalve) == (1e-10, 1e-10, 25, 12) and type(maxit) is int \
+            and type(maxhalve) is int and type(tol) is float and type(pivot_tol) is float:
+        return  # the defaults: known good (a sweep of a study is called many times)
     check_tolerance(tol, "tol")
     check_tolerance(pivot_tol, "pivot_tol")
     check_count(maxit, "maxit", 1, MAX_ITERATIONS, "MAX_ITERATIONS")

@@ -653,6 +653,7 @@ class _Run:
                  ) -> None:
         self.system, self.data, self.S, self.out, self.opt = system, data, S, out, opt
         self.kernel = kernel
+        self.opt_resume = opt._replace(resume=True)
         self.isdriver = data.view("isdriver")
         # fresh arrays of motion_inputs, ours to change (a driver switch rewrites them)
         self.values, self.rd, self.ad = values, rd, ad
@@ -693,11 +694,11 @@ class _Run:
             part = SweepOut(o.Q[sl], o.QD[rs], o.QDD[rs], o.quality[sl], o.rank[sl],
                             o.fgc[sl], o.iters[sl], o.cons[rs], o.jump[sl])
             drive = Drive(self.cols, self.values[sl], self.rd[sl], self.ad[sl])
+        opt = self.opt_resume if resume else self.opt
         if self.kernel is not None:
-            return self.kernel.run(self.system, self.data, self.S, drive,
-                                   self.opt._replace(resume=resume), part, k0)
-        return sweep_steps(self.system.KP, self.data.DP, self.S, self.system.gen, drive,
-                           self.opt._replace(resume=resume), part)
+            return self.kernel.run(self.system, self.data, self.S, drive, opt, part, k0)
+        return sweep_steps(self.system.KP, self.data.DP, self.S, self.system.gen, drive, opt,
+                           part)
 
     def solve(self, branch: str, at_limit: str,
               progress: Callable[[int, int], None] | None) -> tuple[int, int]:
