@@ -94,7 +94,7 @@ def acceleration_rows(V: np.ndarray, A: np.ndarray, L: np.ndarray) -> None:
     L[2, 3] = A[2] + wx * V[1] - wy * V[0]
 
 
-@njit(nrt=False)
+@njit(nrt=False, inline="always")
 def body_inertias(KP: tuple, DP: tuple, YP: tuple, ZP: tuple) -> None:
     """G_b = T_0b J_b T_0b^T for every body (the pseudo-inertia in global axes, 9.7).
 
@@ -135,7 +135,7 @@ def body_inertias(KP: tuple, DP: tuple, YP: tuple, ZP: tuple) -> None:
         G[3, 3] = m
 
 
-@njit(nrt=False)
+@njit(nrt=False, inline="always")
 def inertia_wrenches(KP: tuple, DP: tuple, ZP: tuple) -> float:
     """Inertia wrench of every body, trace(W G (alpha + omega omega)^T) (10.8), into z.Fin,
     and the kinetic energy 1/2 sum_b trace(omega_b G_b omega_b^T) (9.7), returned.

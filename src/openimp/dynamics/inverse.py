@@ -22,7 +22,7 @@ variables and rates:
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -34,6 +34,15 @@ from openimp.kinematics.position import position
 from openimp.kinematics.rates import accelerations, drift, velocity
 from openimp.kinematics.sweep import Solver, sweep_steps
 from openimp.system import data_views, dyn_data_views, dyn_views, model_views
+
+
+def _inlined(fn: Any) -> Any:
+    """A kinematic stage compiled into the force kernels that call it once per step:
+    a regular call would pass every array of its packed arguments at each step."""
+    return njit(nrt=False, inline="always")(getattr(fn, "py_func", fn))
+
+
+_accelerations = _inlined(accelerations)
 
 
 class StepRows(NamedTuple):
@@ -97,7 +106,7 @@ def evaluate(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, ptol: float
     return rank
 
 
-@njit(nrt=False)
+@njit(nrt=False, inline="always")
 def body_wrenches(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple
                   ) -> tuple[float, float, float]:
     """Body accelerations (8.52), the inertia wrench (10.8) and applied wrench of every
@@ -107,7 +116,7 @@ def body_wrenches(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple
     """
     z = dyn_data_views(ZP)
     K = model_views(KP)
-    accelerations(KP, DP, S)
+    _accelerations(KP, DP, S)
     body_inertias(KP, DP, YP, ZP)
     ke = inertia_wrenches(KP, DP, ZP)
     pe, gp = applied_loads(KP, DP, YP, ZP, S)
@@ -117,7 +126,7 @@ def body_wrenches(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple
     return ke, pe, gp
 
 
-@njit(nrt=False)
+@njit(nrt=False, inline="always")
 def transmitted(KP: tuple, DP: tuple, ZP: tuple) -> None:
     """Wsum_h = sum_b P(b,h) Fb_b for every joint (zero for the chords, on no path) and
     gvar_a = D_a . Wsum_h(a) - fq_a for every joint variable.
@@ -159,7 +168,7 @@ def transmitted(KP: tuple, DP: tuple, ZP: tuple) -> None:
             z.gvar[a] = s
 
 
-@njit(nrt=False)
+@njit(nrt=False, inline="always")
 def drive_forces(DP: tuple, ZP: tuple, rank: int, nf: int, out: np.ndarray) -> None:
     """tau_j = sum_b W_{b,j} . Fb_b - sum_h phi'_{h,j} fq_h = sum_a phi'_{a,j} gvar_a for the
     first nf columns of z.cols (11.14), into out[z.cols[j]] (out: (nq,)).

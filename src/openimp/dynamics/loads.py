@@ -61,7 +61,7 @@ def _add_force(F: np.ndarray, f: np.ndarray, s: float, r: np.ndarray) -> None:
     F[5] += r[0] * fy - r[1] * fx
 
 
-@njit(nrt=False)
+@njit(nrt=False, inline="always")
 def applied_loads(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple
                   ) -> tuple[float, float]:
     """Applied wrenches on the bodies (z.Fext), loads on the joint variables (z.fq), the
