@@ -107,3 +107,40 @@ def test_announcer_says_once_that_it_compiles_and_how_long():
     quiet = _io.StringIO()
     _warm.Announcer(quiet, live=False).close()
     assert quiet.getvalue() == ""
+
+
+def test_announcer_says_when_the_force_kernels_compile_too():
+    """A run that reaches the force analysis on a cold cache says so once more, with the
+    force kernels' expected time; a run whose first compile is a force kernel says that
+    first (and not twice)."""
+    import io as _io
+    import types
+
+    def kernel(name, module):
+        fn = types.FunctionType((lambda: None).__code__, {}, name)
+        fn.__module__ = module
+        return types.SimpleNamespace(py_func=fn)
+
+    buf = _io.StringIO()
+    talk = _warm.Announcer(buf, live=False, prefix="deck.imp: ")
+    for name, module in (("sweep_steps", "openimp.kinematics.sweep"),
+                         ("forces_steps", "openimp.dynamics.inverse"),
+                         ("eom", "openimp.dynamics.eom")):
+        talk._on_start(kernel(name, module))
+        talk.depth -= 1
+    talk.close()
+    lines = buf.getvalue().splitlines()
+    assert len(lines) == 3, lines
+    assert "compiling the kinematic kernels" in lines[0]
+    assert "compiling the force kernels too" in lines[1]
+    assert f"about {_warm.FORCE_COMPILE_SECONDS} s" in lines[1]
+    assert "3 kernels compiled" in lines[2]
+    buf = _io.StringIO()
+    talk = _warm.Announcer(buf, live=False)
+    talk._on_start(kernel("forces_steps", "openimp.dynamics.inverse"))
+    talk.depth -= 1
+    talk._on_start(kernel("eom", "openimp.dynamics.eom"))
+    talk.depth -= 1
+    talk.close()
+    lines = buf.getvalue().splitlines()
+    assert len(lines) == 2 and "compiling the force kernels (the first run" in lines[0]

@@ -43,6 +43,8 @@ _LAST = "track.track-"
 #: CPU seconds a cold kinematic run compiles, measured on the reference 2-core machine
 #: (benchmarks/README.md); said to the user as the expected time
 COMPILE_SECONDS = 20
+#: CPU seconds a first force analysis compiles on top (openimp.dynamics; measured 16-20 s)
+FORCE_COMPILE_SECONDS = 20
 
 LOWER = "closed-form"
 GENERAL = "general"
@@ -183,6 +185,7 @@ class Announcer:
         self.depth = 0
         self.count = 0
         self.started: float | None = None
+        self.forces_said = False
         self.finished = 0.0
         self._listener: Any = None
         if not JIT_ENABLED:
@@ -207,20 +210,31 @@ class Announcer:
         fn = getattr(dispatcher, "py_func", None)
         if fn is None or not getattr(fn, "__module__", "").startswith("openimp"):
             return
+        forces = fn.__module__.startswith("openimp.dynamics")
         if self.started is None:
             self.started = time.monotonic()
-            self.stream.write(
-                f"openimp: note: {self.prefix}compiling the {self.what} kernels (the first run "
-                f"of this version "
-                f"of openimp does this once: about {COMPILE_SECONDS} s of CPU, later runs "
-                "load them from the cache)\n")
-            self.stream.flush()
+            what, secs = ("force", FORCE_COMPILE_SECONDS) if forces else (self.what,
+                                                                         COMPILE_SECONDS)
+            self.forces_said = forces
+            self._note(f"compiling the {what} kernels (the first run of this version of "
+                       f"openimp does this once: about {secs} s of CPU, later runs load them "
+                       "from the cache)")
+        elif forces and not self.forces_said:
+            self.forces_said = True
+            self._note(f"compiling the force kernels too (once: about {FORCE_COMPILE_SECONDS}"
+                       " s of CPU more)")
         if self.depth == 1:
             self.count += 1
         if self.live:
             name = fn.__qualname__
             self.stream.write(f"\r  compiling {name[:40]:<40} ({self.count} kernels)")
             self.stream.flush()
+
+    def _note(self, text: str) -> None:
+        if self.live and self.count:
+            self.stream.write("\r" + " " * 70 + "\r")
+        self.stream.write(f"openimp: note: {self.prefix}{text}\n")
+        self.stream.flush()
 
     def close(self) -> None:
         """Stop listening; say how long compiling took when anything compiled."""
