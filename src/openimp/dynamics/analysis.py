@@ -18,6 +18,7 @@ from openimp.dynamics.inverse import (
     ForceOut,
     StepRows,
     forces_steps,
+    open_chain_steps,
     sweep_forces,
 )
 from openimp.dynamics.laws import law_values
@@ -128,8 +129,8 @@ def _open_chain(system: System, drivers: Any, rates: Any, accels: Any,
     out = _allocate(system, n)
     S = make_state(system)
     S.sgc[:] = True
-    forces_steps(system.KP, make_data(system, nq).DP, system.YP,
-                 make_dyn_data(system, nq).ZP, S, system.gen, rows, opt, out)
+    open_chain_steps(system.KP, make_data(system, nq).DP, system.YP,
+                     make_dyn_data(system, nq).ZP, S, system.gen, rows, opt, out)
     return _result(system, tr, out, opt.reactions)
 
 

@@ -30,7 +30,7 @@ from openimp._jit import njit
 from openimp.dynamics.inertia import body_inertias, inertia_wrenches
 from openimp.dynamics.loads import applied_loads
 from openimp.kinematics.elimination import derivatives, eliminate, jacobian, replay
-from openimp.kinematics.position import position
+from openimp.kinematics.position import position, screws
 from openimp.kinematics.rates import accelerations, drift, velocity
 from openimp.kinematics.sweep import Solver, sweep_steps
 from openimp.system import data_views, dyn_data_views, dyn_views, model_views
@@ -43,6 +43,9 @@ def _inlined(fn: Any) -> Any:
 
 
 _accelerations = _inlined(accelerations)
+_position = _inlined(position)
+_velocity = _inlined(velocity)
+_drift = _inlined(drift)
 
 
 class StepRows(NamedTuple):
@@ -354,6 +357,30 @@ def forces_steps(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
             z.law[k] = rows.laws[s, k]
         rank = evaluate(KP, DP, S, gen, opt.ptol)
         force_step(KP, DP, YP, ZP, S, rank, opt, out, s)
+
+
+@njit(nrt=False)
+def open_chain_steps(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
+                     gen: np.ndarray | None, rows: tuple, opt: tuple, out: tuple) -> None:
+    """:func:`forces_steps` for a model without loops whose every variable is given (a
+    robot arm): no loop equations, so no Jacobian and no elimination; phi' is the
+    identity (rank 0, every variable a generalized coordinate, S.sgc all set).
+    The kinematic stages are compiled in (inline) since they run once per step.
+    """
+    z = dyn_data_views(ZP)
+    nq = S.q.shape[0]
+    for s in range(rows.Q.shape[0]):
+        for c in range(nq):
+            S.q[c] = rows.Q[s, c]
+            S.qd[c] = rows.QD[s, c]
+            S.qdd[c] = rows.QDD[s, c]
+        for k in range(rows.laws.shape[1]):
+            z.law[k] = rows.laws[s, k]
+        _position(KP, DP, S, gen, 1)
+        screws(KP, DP, gen)
+        _velocity(KP, DP, S)
+        _drift(KP, DP, S, gen)
+        force_step(KP, DP, YP, ZP, S, 0, opt, out, s)
 
 
 @njit(nrt=False)
