@@ -172,7 +172,6 @@ DYN_DATA_FIELDS: tuple[Field, ...] = (
     Field("Wsum", "f", ("nj", 6), "sum_b P(b,h) Fb_b: the wrench transmitted through joint h"),
     Field("gvar", "f", ("nq",), "D_a . Wsum_h - fq_a: the generalized force of a unit rate of"
           " variable a alone"),
-    Field("e", "f", ("m",), "right-hand side C'_Delta of the fictitious column (17.12)"),
     Field("Xr", "f", ("n6", "m"), "the elimination replayed on every unit loop row: J11^-1"
           " and the dependent rows' remainders, column by column"),
     Field("Yr", "f", ("n6",), "sum_k Xr[r, prow_k] gvar[pcol_k] of every unit loop row"),

@@ -216,7 +216,7 @@ def reactions(KP: tuple, DP: tuple, ZP: tuple, rank: int, itol: float, R: np.nda
     K = model_views(KP)
     d = data_views(DP)
     z = dyn_data_views(ZP)
-    m = z.e.shape[0]
+    m = z.Xr.shape[1]  # the rows of the loop equations
     used = d.used
     for r in range(m):
         used[r] = False
@@ -336,6 +336,18 @@ def force_step(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, rank: int, 
         out.eskip[s, i] = z.eskip[i]
 
 
+@njit(nrt=False, inline="always")
+def _load_row(ZP: tuple, S: tuple, rows: tuple, s: int) -> None:
+    """Row s of the stored motion into the state and its law values into the scratch."""
+    z = dyn_data_views(ZP)
+    for c in range(S.q.shape[0]):
+        S.q[c] = rows.Q[s, c]
+        S.qd[c] = rows.QD[s, c]
+        S.qdd[c] = rows.QDD[s, c]
+    for k in range(rows.laws.shape[1]):
+        z.law[k] = rows.laws[s, k]
+
+
 @njit(nrt=False)
 def forces_steps(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
                  gen: np.ndarray | None, rows: tuple, opt: tuple, out: tuple) -> None:
@@ -345,16 +357,10 @@ def forces_steps(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
     :class:`ForceOut`; S: scratch state whose sgc marks the specified
     coordinates of the motion.
     """
-    z = dyn_data_views(ZP)
-    nq = S.q.shape[0]
     for s in range(rows.Q.shape[0]):
-        for c in range(nq):
-            S.q[c] = rows.Q[s, c]
-            S.qd[c] = rows.QD[s, c]
-            S.qdd[c] = rows.QDD[s, c]
+        _load_row(ZP, S, rows, s)
+        for c in range(S.q.shape[0]):
             S.fgc[c] = rows.generalized[s, c]
-        for k in range(rows.laws.shape[1]):
-            z.law[k] = rows.laws[s, k]
         rank = evaluate(KP, DP, S, gen, opt.ptol)
         force_step(KP, DP, YP, ZP, S, rank, opt, out, s)
 
@@ -367,15 +373,8 @@ def open_chain_steps(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
     identity (rank 0, every variable a generalized coordinate, S.sgc all set).
     The kinematic stages are compiled in (inline) since they run once per step.
     """
-    z = dyn_data_views(ZP)
-    nq = S.q.shape[0]
     for s in range(rows.Q.shape[0]):
-        for c in range(nq):
-            S.q[c] = rows.Q[s, c]
-            S.qd[c] = rows.QD[s, c]
-            S.qdd[c] = rows.QDD[s, c]
-        for k in range(rows.laws.shape[1]):
-            z.law[k] = rows.laws[s, k]
+        _load_row(ZP, S, rows, s)
         _position(KP, DP, S, gen, 1)
         screws(KP, DP, gen)
         _velocity(KP, DP, S)

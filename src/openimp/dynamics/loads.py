@@ -50,6 +50,21 @@ def _point(KP: tuple, DP: tuple, p: int, out: np.ndarray, vel: np.ndarray) -> in
 
 
 @njit(nrt=False, inline="always")
+def _unit_between(r1: np.ndarray, r2: np.ndarray, u: np.ndarray) -> float:
+    """u = (r1 - r2) / |r1 - r2| and the length |r1 - r2|; u is left unnormalised when
+    the points coincide (length below :data:`COINCIDENT`: the caller skips)."""
+    ln = 0.0
+    for k in range(3):
+        u[k] = r1[k] - r2[k]
+        ln += u[k] * u[k]
+    ln = math.sqrt(ln)
+    if ln >= COINCIDENT:
+        for k in range(3):
+            u[k] /= ln
+    return ln
+
+
+@njit(nrt=False, inline="always")
 def _add_force(F: np.ndarray, f: np.ndarray, s: float, r: np.ndarray) -> None:
     """F += the wrench of the force s f applied at r (f, r x f)."""
     fx, fy, fz = s * f[0], s * f[1], s * f[2]
@@ -123,11 +138,7 @@ def applied_loads(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple
         if kind == SPRING or kind == DAMPER:
             b1 = _point(KP, DP, y.ept[i, 0], r1, v1)
             b2 = _point(KP, DP, y.ept[i, 1], r2, v2)
-            ln = 0.0
-            for k in range(3):
-                u[k] = r1[k] - r2[k]
-                ln += u[k] * u[k]
-            ln = math.sqrt(ln)
+            ln = _unit_between(r1, r2, u)
             z.elen[i] = ln
             if ln < COINCIDENT:
                 z.eskip[i] = True
@@ -136,7 +147,6 @@ def applied_loads(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple
                 continue
             rate = 0.0
             for k in range(3):
-                u[k] /= ln
                 rate += u[k] * (v1[k] - v2[k])
             z.erate[i] = rate
             if y.elaw[i] >= 0:
@@ -157,17 +167,11 @@ def applied_loads(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple
         if y.ept[i, first] >= 0:  # direction from one point toward another
             _point(KP, DP, y.ept[i, first], r2, v2)
             _point(KP, DP, y.ept[i, first + 1], r1, v1)
-            ln = 0.0
-            for k in range(3):
-                u[k] = r1[k] - r2[k]
-                ln += u[k] * u[k]
-            ln = math.sqrt(ln)
+            ln = _unit_between(r1, r2, u)
             z.elen[i] = ln
             if ln < COINCIDENT:
                 z.eskip[i] = True
                 continue
-            for k in range(3):
-                u[k] /= ln
         else:
             for k in range(3):
                 u[k] = y.edir[i, k]
