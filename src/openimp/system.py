@@ -711,7 +711,7 @@ def compile_model(model: Any) -> System:
     q0a.setflags(write=False)
     sign0.setflags(write=False)
     dyn, elements, laws, warnings = _dynamic_group(model, bodies, bidx, g, Tb, Ls, q0a,
-                                                   var_kinds, list(model.joints))
+                                                   var_kinds, list(model.joints), jq0)
     YP = read_only(pack(DYN_FIELDS, dyn))
     return System(
         name=model.name,
@@ -740,7 +740,7 @@ def compile_model(model: Any) -> System:
 
 def _dynamic_group(
     model: Any, bodies: list[str], bidx: dict[str, int], ground: int, Tb: np.ndarray,
-    Ls: float, q0: np.ndarray, var_kinds: list[str], jnames: list[str],
+    Ls: float, q0: np.ndarray, var_kinds: list[str], jnames: list[str], jq0s: np.ndarray,
 ) -> tuple[dict[str, np.ndarray], tuple[str, ...], tuple[tuple[str, str, Any, int], ...],
            list[str]]:
     """The arrays of :data:`DYN_FIELDS` from the model's mass, gravity and load data.
@@ -764,11 +764,7 @@ def _dynamic_group(
     qk, qfree, qc, qf = (np.zeros(nq) for _ in range(4))
     qlaw = -np.ones((nq, 3), np.int64)
     laws: list[tuple[str, str, Any, int]] = []
-    jq0 = {}
-    a = 0
-    for name in jnames:
-        jq0[name] = a
-        a += model.joints[name].kind.nvar
+    jq0 = {name: int(a) for name, a in zip(jnames, jq0s, strict=True)}
     for (jname, k), jl in model.joint_loads.items():
         if jname not in jq0:
             continue

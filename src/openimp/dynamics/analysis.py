@@ -28,7 +28,6 @@ from openimp.kinematics.sweep import (
     Solver,
     SweepOut,
     motion_inputs,
-    solve_sweep,
     sweep,
 )
 from openimp.kinematics.track import tracker
@@ -70,8 +69,8 @@ def forces(source: Trajectory | System, drivers: Any = None, rates: Any = None,
         if direct is not None:
             return direct
         kernel = _SweepForces(source, opt)
-        tr = solve_sweep(source, drivers, rates, accels, pivot_tol=pivot_tol,
-                         kernel=kernel, **sweep_options)
+        tr = sweep(source, drivers, rates, accels, pivot_tol=pivot_tol, kernel=kernel,
+                   **sweep_options)
         assert kernel.out is not None
         return _result(source, tr, ForceOut(*(a[:tr.nsteps] for a in kernel.out)),
                        reactions)

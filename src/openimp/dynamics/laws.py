@@ -84,13 +84,12 @@ def law_values(system: Any, trajectory: Any, times: np.ndarray) -> np.ndarray:
     if not system.laws:
         return out
     rates = trajectory.has_rates
-    model = getattr(system, "elements", ())
     for slot, (what, name, fn, col) in enumerate(system.laws):
         if col >= 0:
             x = trajectory.q[:, col]
             xd = trajectory.qd[:, col] if rates else np.zeros(n)
         elif what in ("spring", "damper"):
-            x, xd = _element_kinematics(system, trajectory, model.index(name))
+            x, xd = _element_kinematics(system, trajectory, system.elements.index(name))
         else:
             x = xd = np.zeros(n)
         f = _scale(system, what, col)

@@ -521,6 +521,7 @@ def sweep(
     branch: str = "smooth",
     at_limit: str = "stop",
     progress: Callable[[int, int], None] | None = None,
+    kernel: StepKernel | None = None,
 ) -> Trajectory:
     """Move ``system`` through the driver values and solve every posture.
 
@@ -554,35 +555,11 @@ def sweep(
     ``progress(done, total)`` is called as the steps are solved (in chunks of
     :data:`CHUNK`); Ctrl-C then ends the sweep with every step solved before
     (:attr:`Trajectory.interrupted`).
+
+    ``kernel`` (:class:`StepKernel`), for analyses built on the sweep: solves
+    the steps in place of :func:`sweep_steps` and does its own work at each
+    (rates are then always computed: zero where none are given).
     """
-    return solve_sweep(system, drivers, rates, accels, motion=motion, times=times, tol=tol,
-                       pivot_tol=pivot_tol, maxit=maxit, maxhalve=maxhalve,
-                       hold_free=hold_free, start=start, steps=steps, branch=branch,
-                       at_limit=at_limit, progress=progress)
-
-
-def solve_sweep(
-    system: System,
-    drivers: Mapping[Any, Sequence[float] | np.ndarray] | None = None,
-    rates: Mapping[Any, Sequence[float] | np.ndarray] | None = None,
-    accels: Mapping[Any, Sequence[float] | np.ndarray] | None = None,
-    *,
-    motion: Mapping[Any, Any] | None = None,
-    times: Sequence[float] | np.ndarray | None = None,
-    tol: float = 1e-10,
-    pivot_tol: float = 1e-10,
-    maxit: int = 25,
-    maxhalve: int = 12,
-    hold_free: bool = False,
-    start: np.ndarray | None = None,
-    steps: int | None = None,
-    branch: str = "smooth",
-    at_limit: str = "stop",
-    progress: Callable[[int, int], None] | None = None,
-    kernel: StepKernel | None = None,
-) -> Trajectory:
-    """:func:`sweep`, with the steps solved by ``kernel`` (:class:`StepKernel`) when given
-    (rates are then always computed: zero where none are given)."""
     check_solver_options(tol, pivot_tol, maxit, maxhalve)
     if branch not in ("smooth", "other"):
         raise InputError(f"branch must be 'smooth' or 'other', got {branch!r}")
