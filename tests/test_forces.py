@@ -37,6 +37,7 @@ import pytest
 
 import openimp
 from openimp.motion import Polynomial
+from test_kinematics import cardan_example_51  # the shape matrices of book example 5.1
 
 DEG = math.pi / 180
 G_EARTH = 9.81
@@ -645,23 +646,6 @@ def Rz(t: float) -> np.ndarray:
     return np.array([[c, -s, 0, 0], [s, c, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1.0]])
 
 
-def cardan_shapes(beta: float, d1: float, d2: float, h: float) -> dict:
-    """Shape matrices S_(body, joint) of book example 5.1 (bodies 4 frame, 1 output
-    shaft, 2 cross, 3 input shaft; joints A 4->1, B 1->2, C 2->3, D 3->4)."""
-    cb, sb = math.cos(beta), math.sin(beta)
-    return {
-        ("4", "A"): np.array([[0, 0, 1, d1], [1, 0, 0, h], [0, 1, 0, 0], [0, 0, 0, 1.0]]),
-        ("1", "A"): np.array([[0, 0, 1, d1], [0, -1, 0, 0], [1, 0, 0, 0], [0, 0, 0, 1.0]]),
-        ("1", "B"): np.array([[0, 1, 0, 0], [0, 0, 1, 0], [1, 0, 0, 0], [0, 0, 0, 1.0]]),
-        ("2", "B"): np.eye(4),
-        ("2", "C"): np.array([[0, 1, 0, 0], [0, 0, 1, 0], [1, 0, 0, 0], [0, 0, 0, 1.0]]),
-        ("3", "C"): np.array([[0, 0, 1, 0], [0, -1, 0, 0], [1, 0, 0, 0], [0, 0, 0, 1.0]]),
-        ("3", "D"): np.array([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, d2], [0, 0, 0, 1.0]]),
-        ("4", "D"): np.array([[0, -sb, cb, d2 * cb], [1, 0, 0, h], [0, cb, sb, d2 * sb],
-                              [0, 0, 0, 1.0]]),
-    }
-
-
 def test_hooke_coupling_book_example_17_1():
     """Book example 17.1 (digest 8.1): beta = 150 deg, d1 = d2 = 1, h = 0.5, the joints
     and shape matrices of example 5.1 (the loop A 4->1, B 1->2, C 2->3, D 3->4; body 4
@@ -678,7 +662,7 @@ def test_hooke_coupling_book_example_17_1():
     are statically indeterminate (17.18): NaN.  Tolerance 1e-10 relative.
     """
     beta, d1, d2, h, PA = 150 * DEG, 1.0, 1.0, 0.5, 3.0
-    S = cardan_shapes(beta, d1, d2, h)
+    S = cardan_example_51(beta, d1, d2, h)
 
     def T(joint, b1, b2, phi):
         return S[(b1, joint)] @ Rz(phi) @ np.linalg.inv(S[(b2, joint)])
