@@ -575,25 +575,41 @@ class Forces:
         indeterminate joint-frame component contributes to it.
         """
         h = self._h(joint)
-        R = self._R[:, h]
         if frame == "joint":
-            return R.copy()
+            return self._R[:, h].copy()
         if frame not in ("global", "second"):
             raise InputError(f"frame must be 'joint', 'global' or 'second', got {frame!r}")
         A1, A2 = self._frames(h)
-        n = R.shape[0]
-        Tm = np.zeros((n, 6, 6))
+        if frame == "second":
+            return self._in_frame(h, A1, A2, None)
+        at_origin = np.zeros_like(A1)  # global axes at the first frame's origin
+        at_origin[:] = np.eye(4)
+        at_origin[:, :3, 3] = A1[:, :3, 3]
+        return self._in_frame(h, A1, at_origin, None)
+
+    def in_frame(self, joint: str, frame: np.ndarray, axes: np.ndarray | None = None
+                 ) -> np.ndarray:
+        """The load of ``joint``'s first body on its second (steps x 6) re-expressed in any
+        frame: forces on the axes of ``frame`` (steps x 4 x 4, global, model units),
+        moments about its origin on ``axes`` (steps x 3 x 3, rows the axes; default
+        the frame's own).  A component is NaN when an indeterminate joint-frame
+        component contributes to it (:func:`nan_apply`)."""
+        h = self._h(joint)
+        return self._in_frame(h, self._frames(h)[0], frame, axes)
+
+    def _in_frame(self, h: int, A1: np.ndarray, frame: np.ndarray, axes: np.ndarray | None
+                  ) -> np.ndarray:
+        """:meth:`in_frame` of joint h, whose frame on the first body is A1 (steps x 4 x 4)."""
+        R = self._R[:, h]
         R1 = A1[:, :3, :3]
-        Tm[:, :3, :3] = R1
-        Tm[:, 3:, 3:] = R1
-        if frame == "global":
-            return nan_apply(Tm, R)
-        # moment about the second origin: M_o2 = M_o1 + (o1 - o2) x F
-        d = A1[:, :3, 3] - A2[:, :3, 3]
-        Tm[:, 3:, :3] = _skew(d) @ R1
-        R2t = np.swapaxes(A2[:, :3, :3], 1, 2)
-        Tm[:, :3, :] = R2t @ Tm[:, :3, :]
-        Tm[:, 3:, :] = R2t @ Tm[:, 3:, :]
+        Ft = np.swapaxes(frame[:, :3, :3], 1, 2)
+        # global moment about the new origin: M_o2 = M_o1 + (o1 - o2) x F
+        Mrow = np.zeros((R.shape[0], 3, 6))
+        Mrow[:, :, :3] = _skew(A1[:, :3, 3] - frame[:, :3, 3]) @ R1
+        Mrow[:, :, 3:] = R1
+        Tm = np.zeros((R.shape[0], 6, 6))
+        Tm[:, :3, :3] = Ft @ R1
+        Tm[:, 3:, :] = (Ft if axes is None else axes) @ Mrow
         return nan_apply(Tm, R)
 
     def determinate(self, joint: str) -> np.ndarray:

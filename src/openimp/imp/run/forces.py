@@ -35,8 +35,6 @@ import numpy as np
 from openimp.errors import InputError
 from openimp.imp.run.prepare import Prepared
 from openimp.imp.run.solution import Solution
-from openimp.results import nan_apply
-from openimp.spatial import inverse as _rigid_inverse
 
 __all__ = ["ForceResults", "compute", "reads_forces", "wants_forces"]
 
@@ -102,43 +100,21 @@ def _unit(v: np.ndarray) -> np.ndarray:
         return np.where(n > 1e-12, v / np.where(n > 0, n, 1.0), np.nan)
 
 
-def _skew(v: np.ndarray) -> np.ndarray:
-    out = np.zeros((*v.shape[:-1], 3, 3))
-    out[..., 0, 1], out[..., 0, 2], out[..., 1, 2] = -v[..., 2], v[..., 1], -v[..., 0]
-    out[..., 1, 0], out[..., 2, 0], out[..., 2, 1] = v[..., 2], -v[..., 1], v[..., 0]
-    return out
-
-
 def joint_load(prep: Prepared, sol: Solution, forces: Any, name: str) -> np.ndarray:
     """(steps x 6) the load of joint ``name`` in IMP's kinematic-mode convention (see the
     module docstring) from :class:`openimp.results.Forces`."""
     model = prep.built.model
     ij, _jd, L1, L2 = prep.built.joints[name]
     mj = model.joints[name]
-    # openimp's joint frame on the first body (the frame of Forces.reaction), per step
-    S1 = _rigid_inverse(model.body_frames[mj.body1]) @ mj.frame1
-    A1 = sol.traj.posture(mj.body1) @ S1
     # IMP's joint frame on the second link
     B2 = sol.traj.posture(mj.body2) @ L2
-    R = forces.reaction(name, frame="joint")
-    R1 = A1[:, :3, :3]
-    R2t = np.swapaxes(B2[:, :3, :3], 1, 2)
-    d = A1[:, :3, 3] - B2[:, :3, 3]  # M about o2 = M about o1 + (o1 - o2) x F
-    n = R.shape[0]
-    Tm = np.zeros((n, 6, 6))
-    Tm[:, :3, :3] = R2t @ R1
-    Mrow = np.zeros((n, 3, 6))  # global moment about o2 from (F, M) on frame 1
-    Mrow[:, :, :3] = _skew(d) @ R1
-    Mrow[:, :, 3:] = R1
-    if ij.keyword == "SPHERE":
+    axes = None
+    if ij.keyword == "SPHERE":  # moments on the Euler axes u, the line of nodes, w'
         e1 = (sol.traj.posture(mj.body1) @ L1)[:, :3, 0]
         e3 = B2[:, :3, 2]
         e2 = _unit(np.cross(e3, e1))
-        E = np.stack([e1, e2, e3], axis=1)  # rows: the Euler axes
-        Tm[:, 3:, :] = E @ Mrow
-    else:
-        Tm[:, 3:, :] = R2t @ Mrow
-    return nan_apply(Tm, R)
+        axes = np.stack([e1, e2, e3], axis=1)
+    return forces.in_frame(name, B2, axes)
 
 
 def compute(prep: Prepared, sol: Solution, notes: list[str]) -> ForceResults:
