@@ -53,6 +53,13 @@ def pseudo_wrench(G: np.ndarray, L: np.ndarray, out: np.ndarray) -> None:
 
 
 @njit(nrt=False, inline="always")
+def massless(J: np.ndarray) -> bool:
+    """A pseudo-inertia (4 x 4, any axes) of no mass and no inertia: its diagonal, which
+    is never negative, is all zero."""
+    return J[3, 3] == 0.0 and J[0, 0] == 0.0 and J[1, 1] == 0.0 and J[2, 2] == 0.0
+
+
+@njit(nrt=False, inline="always")
 def screw_rows(s: np.ndarray, L: np.ndarray) -> None:
     """The top rows (3, 4) of the operator [[skew(w), v], [0, 0]] of screw s = (v, w)."""
     L[0, 0] = 0.0
@@ -111,9 +118,9 @@ def body_inertias(KP: tuple, DP: tuple, YP: tuple, ZP: tuple) -> None:
     RS = z.L3  # R Sigma (its first three columns)
     for b in range(K.order.shape[0]):
         J = y.Jb[b]
+        if massless(J):
+            continue
         m = J[3, 3]
-        if m == 0.0 and J[0, 0] == 0.0 and J[1, 1] == 0.0 and J[2, 2] == 0.0:
-            continue  # massless (the diagonal of a pseudo-inertia is >= 0)
         T = d.T0[b]
         G = z.Gb[b]
         for i in range(3):
@@ -150,7 +157,7 @@ def inertia_wrenches(KP: tuple, DP: tuple, ZP: tuple) -> float:
     ke = 0.0
     for b in range(K.order.shape[0]):
         G = z.Gb[b]
-        if G[3, 3] == 0.0 and G[0, 0] == 0.0 and G[1, 1] == 0.0 and G[2, 2] == 0.0:
+        if massless(G):
             for i in range(6):
                 z.Fin[b, i] = 0.0
             continue  # massless: no inertia
@@ -187,9 +194,8 @@ def mass_matrix(KP: tuple, ZP: tuple, M: np.ndarray) -> None:
         for j in range(nf):
             M[i, j] = 0.0
     for b in range(K.order.shape[0]):
-        if z.Gb[b, 3, 3] == 0.0 and z.Gb[b, 0, 0] == 0.0 and z.Gb[b, 1, 1] == 0.0 \
-                and z.Gb[b, 2, 2] == 0.0:
-            continue  # massless (the diagonal of a pseudo-inertia is >= 0)
+        if massless(z.Gb[b]):
+            continue
         for j in range(nf):
             screw_rows(z.W[b, j], L)
             pseudo_wrench(z.Gb[b], L, h)
