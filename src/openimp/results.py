@@ -725,3 +725,234 @@ class Run:
         if self.interrupted:
             d["interrupted"] = True
         return d
+
+
+# =============================================================================
+# Linearized equations, modes and frequency response (book ch 11, 13)
+# =============================================================================
+@dataclass
+class Linearization:
+    """M v' + D v + K x = F about one set point (11.7)-(11.11), in model units.
+
+    Over the generalized coordinates ``coords`` (f names; ``specified`` (f,)
+    marks the SGCs, the rest are FGCs): M, D, K (f, f), F (f,) the generalized
+    force left at the set point (11.10; the inertia term excluded).  Rows are
+    generalized forces (force, or moment for an angle), columns per unit of
+    the coordinate (radian or length) and its rate.  ``phi`` (nq, f): the
+    first geometric derivatives of every joint variable (7.14), model units;
+    ``q`` (nq,) the posture, ``rates``, ``accels`` (f,) and ``t`` the set
+    point.  ``points`` maps a point name to its (3, f) derivatives dR/dpsi;
+    ``inputs`` an element name to its generalized direction (f,): the
+    generalized force of a unit force or torque.  ``messages``: what was
+    approximated.
+    """
+
+    system: Any
+    coords: list[str]
+    specified: np.ndarray
+    M: np.ndarray
+    D: np.ndarray
+    K: np.ndarray
+    F: np.ndarray
+    phi: np.ndarray
+    q: np.ndarray
+    rates: np.ndarray
+    accels: np.ndarray
+    t: float
+    points: dict[str, np.ndarray]
+    inputs: dict[str, np.ndarray]
+    messages: list[str] = field(default_factory=list)
+
+    @property
+    def free(self) -> np.ndarray:
+        """Indices of the FGCs among ``coords``."""
+        return np.flatnonzero(~self.specified)
+
+    @property
+    def sgc(self) -> np.ndarray:
+        """Indices of the SGCs among ``coords``."""
+        return np.flatnonzero(self.specified)
+
+    def block(self, name: str, part: str) -> np.ndarray:
+        """A partition (11.12) of ``M``, ``D`` or ``K``: part ``"FF"``, ``"FS"``, ``"SF"``,
+        ``"SS"``; or of ``F``: ``"F"``, ``"S"``."""
+        X = getattr(self, name)
+        idx = {"F": self.free, "S": self.sgc}
+        if X.ndim == 1:
+            return X[idx[part]]
+        return X[np.ix_(idx[part[0]], idx[part[1]])]
+
+    def to_table(self) -> dict[str, Any]:
+        """Columns: coordinate, specified, then the rows of M, D and K by column coordinate
+        and F."""
+        cols: dict[str, Any] = {"coordinate": list(self.coords),
+                                "specified": self.specified.copy()}
+        for name in ("M", "D", "K"):
+            X = getattr(self, name)
+            for j, c in enumerate(self.coords):
+                cols[f"{name}[{c}]"] = X[:, j].copy()
+        cols["F"] = self.F.copy()
+        return cols
+
+
+@dataclass
+class Modes:
+    """Eigen-solution of the linearized FGC equations with every SGC locked (13.9-13.13).
+
+    ``eigenvalues`` (2 nf,) complex, 1/s.  One entry per mode in the other
+    arrays: a complex pair is one oscillatory mode (``frequency`` |lambda| in
+    rad/s, ``damping`` ratio -Re lambda / |lambda|, ``damped`` Im lambda); a
+    real eigenvalue is one non-oscillatory mode (``time_constant`` -1/lambda
+    in s, negative when it grows; ``frequency`` and ``damping`` NaN).
+    ``kind``: "oscillatory", "overdamped" or "neutral" (lambda = 0);
+    ``unstable``: Re lambda > 0.  ``shapes`` (nf, modes): the FGC amplitudes
+    (complex, largest component 1); ``joint_shapes`` (nq, modes): every joint
+    variable (phi' of the FGCs times the shape, model units).
+    """
+
+    linearization: Linearization
+    coords: list[str]
+    eigenvalues: np.ndarray
+    mode_eigenvalue: np.ndarray
+    frequency: np.ndarray
+    damping: np.ndarray
+    damped: np.ndarray
+    time_constant: np.ndarray
+    kind: list[str]
+    unstable: np.ndarray
+    shapes: np.ndarray
+    joint_shapes: np.ndarray
+    state_matrix: np.ndarray
+
+    @property
+    def count(self) -> int:
+        """Number of modes."""
+        return len(self.kind)
+
+    def to_table(self) -> dict[str, Any]:
+        """Columns: mode, kind, natural frequency (rad/s and Hz), damping ratio, damped
+        frequency, time constant, unstable, real and imaginary parts of lambda."""
+        lam = self.mode_eigenvalue
+        return {"mode": np.arange(1, self.count + 1), "kind": list(self.kind),
+                "frequency": self.frequency.copy(), "frequency_hz":
+                self.frequency / (2 * math.pi), "damping": self.damping.copy(),
+                "damped": self.damped.copy(), "time_constant": self.time_constant.copy(),
+                "unstable": self.unstable.copy(), "re": lam.real.copy(),
+                "im": lam.imag.copy()}
+
+
+@dataclass
+class TransferFunction:
+    """One transfer function H(s) = num(s) / den(s) of the linearized equations (13.18).
+
+    ``num``, ``den``: polynomial coefficients, highest power first (den monic),
+    model units of the output per unit of the input.  ``input`` and
+    ``output`` describe the pair, e.g. ``("force", "F1")`` and
+    ``("position", "B.x")``.
+    """
+
+    input: tuple[str, str]
+    output: tuple[str, str]
+    num: np.ndarray
+    den: np.ndarray
+
+    def __call__(self, s: Any) -> Any:
+        """H at complex frequency s (scalar or array)."""
+        s = np.asarray(s, complex)
+        return np.polyval(self.num, s) / np.polyval(self.den, s)
+
+    def formula(self, digits: int = 6, var: str = "S") -> str:
+        """The rational function as text, e.g. ``(1)/(S**2 + 0.2*S + 4)``."""
+        return f"({_poly_text(self.num, digits, var)})/({_poly_text(self.den, digits, var)})"
+
+    def poles(self) -> np.ndarray:
+        """Roots of the denominator."""
+        return np.roots(self.den) if self.den.size > 1 else np.zeros(0, complex)
+
+    def zeros(self) -> np.ndarray:
+        """Roots of the numerator."""
+        return np.roots(self.num) if self.num.size > 1 else np.zeros(0, complex)
+
+
+def _poly_text(c: np.ndarray, digits: int, var: str) -> str:
+    """A polynomial (highest power first) as text in ``var``."""
+    n = len(c) - 1
+    terms = []
+    for k, a in enumerate(c):
+        p = n - k
+        if a == 0 and len(c) > 1:
+            continue
+        mag = f"{abs(a):.{digits}g}"
+        sign = "-" if a < 0 else "+"
+        pw = "" if p == 0 else (var if p == 1 else f"{var}**{p}")
+        body = mag if not pw else (pw if mag == "1" else f"{mag}*{pw}")
+        terms.append((sign, body))
+    if not terms:
+        return "0"
+    text = ("-" if terms[0][0] == "-" else "") + terms[0][1]
+    for sign, body in terms[1:]:
+        text += f" {sign} {body}"
+    return text
+
+
+@dataclass
+class FrequencyResponse:
+    """H(j w) of one input to several outputs over frequencies ``w`` (rad/s) (13.20, 13.21).
+
+    ``H`` (nw, nout) complex; ``magnitude`` |H|, ``phase`` in degrees
+    (unwrapped along w).  ``labels``: one per output.
+    """
+
+    w: np.ndarray
+    H: np.ndarray
+    input: tuple[str, str]
+    outputs: list[tuple[str, str]]
+
+    @property
+    def magnitude(self) -> np.ndarray:
+        """|H| (nw, nout)."""
+        return np.abs(self.H)
+
+    @property
+    def phase(self) -> np.ndarray:
+        """Phase of H in degrees (nw, nout), unwrapped along w."""
+        return np.degrees(np.unwrap(np.angle(self.H), axis=0))
+
+    def to_table(self) -> dict[str, Any]:
+        """Columns: w (rad/s), then magnitude and phase (degrees) of every output."""
+        cols: dict[str, Any] = {"w": self.w.copy()}
+        mag, ph = self.magnitude, self.phase
+        for k, (kind, name) in enumerate(self.outputs):
+            cols[f"|{kind} {name}|"] = mag[:, k]
+            cols[f"phase {kind} {name}"] = ph[:, k]
+        return cols
+
+
+@dataclass
+class StateSpace:
+    """x' = A x + B u, y = C x + D u of the linearized FGC equations (13.4-13.7, 14.11).
+
+    The state is (v_F, x_F) of the book (velocities first), shifted by the
+    input where an SGC motion drives it (see :func:`openimp.state_space`);
+    ``inputs`` and ``outputs`` name the columns of B and rows of C.  Ready for
+    ``scipy.signal.StateSpace(A, B, C, D)`` or python-control.
+    """
+
+    A: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    D: np.ndarray
+    states: list[str]
+    inputs: list[tuple[str, str]]
+    outputs: list[tuple[str, str]]
+
+    def to_table(self) -> dict[str, Any]:
+        """Columns: the rows of [A B; C D] by state and input."""
+        top = np.hstack([self.A, self.B])
+        bot = np.hstack([self.C, self.D])
+        full = np.vstack([top, bot])
+        names = self.states + [f"{k} {n}" for k, n in self.inputs]
+        cols: dict[str, Any] = {"row": self.states + [f"{k} {n}" for k, n in self.outputs]}
+        for j, n in enumerate(names):
+            cols[n] = full[:, j]
+        return cols

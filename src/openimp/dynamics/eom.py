@@ -47,21 +47,13 @@ from openimp.system import (
 )
 
 
-@njit(nrt=False)
-def eom(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | None,
-        ptol: float, psid: np.ndarray, out: tuple) -> tuple[int, int, float, float]:
-    """M, c and Q of (10.15) at S.q with generalized rates ``psid``, into ``out`` =
-    (M, c, Q).
-
-    The generalized coordinates are S.sgc and the columns the elimination
-    leaves free, in column order, into z.cols (returned count nf).  ``psid``
-    (nq,): the rates of the generalized coordinates (others ignored); the
-    joint rates S.qd = phi' psid (7.16) and S.qdd (velocity-product, 8.44) are
-    written.  M: (nq, nq), c, Q: (nq,), the leading nf used.  Returns (nf,
-    rank, kinetic energy, potential energy).
-    """
-    M, c, Q = out
-    K = model_views(KP)
+@njit(nrt=False, inline="always")
+def generalized(KP: tuple, DP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | None,
+                ptol: float) -> tuple[int, int]:
+    """Evaluate and eliminate the loop equations at S.q (assembled) and set up the
+    generalized coordinates: S.sgc and the columns the elimination leaves free, in
+    column order, into z.cols; phi' of them into z.Gf (7.14) and the body operators
+    W_{b,j} into z.W (7.20).  Returns (rank, nf)."""
     d = data_views(DP)
     z = dyn_data_views(ZP)
     nq = S.q.shape[0]
@@ -77,12 +69,52 @@ def eom(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | 
         if S.sgc[a] or not d.used[a]:
             z.cols[nf] = a
             nf += 1
+    G = z.Gf[:, :nf]
+    derivatives(DP, rank, z.cols[:nf], G)
+    body_operators(KP, DP, G, z.W[:, :nf])
+    return rank, nf
+
+
+@njit(nrt=False, inline="always")
+def generalized_forces(KP: tuple, ZP: tuple, nf: int, c: np.ndarray, Q: np.ndarray) -> None:
+    """c_j = sum_b W_{b,j} . Fin_b and Q_j = sum_b W_{b,j} . Fext_b + sum_a phi'_{a,j} fq_a
+    (10.12, 10.13) for the nf coordinates of z.W, z.Gf."""
+    K = model_views(KP)
+    z = dyn_data_views(ZP)
+    W = z.W
+    G = z.Gf
+    for j in range(nf):
+        cj = 0.0
+        qj = 0.0
+        for b in range(K.order.shape[0]):
+            for i in range(6):
+                cj += W[b, j, i] * z.Fin[b, i]
+                qj += W[b, j, i] * z.Fext[b, i]
+        for a in range(G.shape[0]):
+            qj += G[a, j] * z.fq[a]
+        c[j] = cj
+        Q[j] = qj
+
+
+@njit(nrt=False)
+def eom(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | None,
+        ptol: float, psid: np.ndarray, out: tuple) -> tuple[int, int, float, float]:
+    """M, c and Q of (10.15) at S.q with generalized rates ``psid``, into ``out`` =
+    (M, c, Q).
+
+    The generalized coordinates are S.sgc and the columns the elimination
+    leaves free (:func:`generalized`; count nf).  ``psid``
+    (nq,): the rates of the generalized coordinates (others ignored); the
+    joint rates S.qd = phi' psid (7.16) and S.qdd (velocity-product, 8.44) are
+    written.  M: (nq, nq), c, Q: (nq,), the leading nf used.  Returns (nf,
+    rank, kinetic energy, potential energy).
+    """
+    M, c, Q = out
+    z = dyn_data_views(ZP)
+    rank, nf = generalized(KP, DP, ZP, S, gen, ptol)
     cols = z.cols[:nf]
-    G = d.G[:, :nf]
-    W = z.W[:, :nf]
-    derivatives(DP, rank, cols, G)
-    body_operators(KP, DP, G, W)
-    for a in range(nq):
+    G = z.Gf[:, :nf]
+    for a in range(S.q.shape[0]):
         s = 0.0
         for j in range(nf):
             s += G[a, j] * psid[cols[j]]
@@ -94,17 +126,7 @@ def eom(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | 
     ke = inertia_wrenches(KP, DP, ZP)
     pe = applied_loads(KP, DP, YP, ZP, S)[0]
     mass_matrix(KP, ZP, M[:nf, :nf])
-    for j in range(nf):
-        cj = 0.0
-        qj = 0.0
-        for b in range(K.order.shape[0]):
-            for i in range(6):
-                cj += W[b, j, i] * z.Fin[b, i]
-                qj += W[b, j, i] * z.Fext[b, i]
-        for a in range(nq):
-            qj += G[a, j] * z.fq[a]
-        c[j] = cj
-        Q[j] = qj
+    generalized_forces(KP, ZP, nf, c, Q)
     return nf, rank, ke, pe
 
 

@@ -1,0 +1,548 @@
+"""Linearized vibration: the Python entries of chapters 11 and 13.
+
+* :func:`linearize`: M, D, K, F about a set point (11.7-11.10) with the
+  FGC/SGC partition (11.12-11.14), from the compiled kernel of
+  :mod:`~openimp.dynamics.linear` plus the derivatives of load laws;
+* :func:`modes`: eigenvalues of the first-order FGC system with every SGC
+  locked (13.9, 14.11), natural frequencies, damping ratios, time
+  constants, mode shapes;
+* :func:`transfer_function`, :func:`frequency_response`,
+  :func:`state_space`: from a force element, a load on a joint variable or
+  an SGC motion to positions, velocities or accelerations of joint variables
+  and point components (13.18-13.21).
+
+Inputs are ``("force", element)`` (a force or torque element of the model,
+per unit of its magnitude), ``("load", "joint[.var]")`` (a force or moment
+on a joint variable, positive tending to increase it) or
+``("motion", "joint[.var]")`` (an SGC moved by x_S).  Outputs are
+``("position" | "velocity" | "accel", name)`` with name a joint variable
+(``"J"``, ``"J.var"``) or a point component (``"P.x"``, ``"P.y"``,
+``"P.z"``).  Everything is in model units (radians for angles).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from openimp.dynamics.laws import law_values
+from openimp.dynamics.linear import H_MOTION, linearize_kernel
+from openimp.errors import AnalysisError, InputError
+from openimp.kinematics.track import tracker
+from openimp.results import (
+    FrequencyResponse,
+    Linearization,
+    Modes,
+    StateSpace,
+    Trajectory,
+    TransferFunction,
+)
+from openimp.system import FORCE, TORQUE, System, make_data, make_dyn_data, make_state
+
+#: closure tolerance of the postures the motion terms are differenced over
+CLOSE_TOL = 1e-13
+#: relative size of M_FF's smallest eigenvalue below which it is singular
+SINGULAR_M = 1e-12
+
+OUTPUT_KINDS = ("position", "velocity", "accel")
+INPUT_KINDS = ("force", "load", "motion")
+
+
+# ----------------------------------------------------------------------------- linearize
+def linearize(system: System, q: Any = None, rates: Any = None, accels: Any = None, *,
+              specified: Any = (), t: float = 0.0, pivot_tol: float = 1e-10,
+              motion_terms: bool = True) -> Linearization:
+    """The linearized equations of motion of ``system`` about one set point (11.11).
+
+    ``q``: joint variables (nq,), model units, an assembled posture (default
+    the modeling posture); ``specified``: the SGCs (joint names or
+    ``"joint.var"``), the other generalized coordinates are the FGCs the
+    elimination leaves; ``rates``, ``accels``: mappings coordinate -> rate,
+    acceleration at the set point (default at rest).  ``motion_terms``: add the
+    position derivatives of the velocity and acceleration terms that the
+    book's K (11.9) leaves out (default; they vanish at rest).
+    """
+    if not isinstance(system, System):
+        raise InputError(f"linearize takes a compiled System, got {type(system).__name__}")
+    nq = system.nq
+    qm = system.modeling_q if q is None else np.asarray(q, float)
+    if qm.shape != (nq,) or not np.all(np.isfinite(qm)):
+        raise InputError(f"q must hold the {nq} joint variables as finite numbers, got "
+                         f"shape {qm.shape}")
+    S = make_state(system, system.to_internal(qm), t)
+    for key in specified:
+        S.sgc[system.var_index(key)] = True
+    vs = system.var_scale
+    psid = _per_coordinate(system, rates, "rates")
+    psidd = _per_coordinate(system, accels, "accels")
+    data = make_data(system, nq)
+    dyn = make_dyn_data(system, nq)
+    nlaw = len(system.laws)
+    if nlaw:
+        dyn.v.law[:] = _laws(system, S.q[None, :], (S.qd * 0)[None, :], t)[0]
+    moving = motion_terms and bool(np.any(psid) or np.any(psidd))
+    opts = np.array([pivot_tol, CLOSE_TOL, H_MOTION, float(moving), float(nlaw > 0)])
+    nb = len(system.bodies)
+    out = (np.zeros((nq, nq)), np.zeros((nq, nq)), np.zeros((nq, nq)), np.zeros(nq),
+           np.zeros((nq, nq, nq)), np.zeros((nb, nq, nq, 6)), np.zeros((nq, nlaw)),
+           np.zeros((nq, 4, nq)))
+    work = (np.zeros(nq), np.zeros(nq), np.zeros(nq), np.zeros(nq), np.zeros(nq),
+            np.zeros(nq), np.zeros(nq), np.zeros(nq), np.zeros((nb, 6)), np.zeros(nq),
+            np.zeros(nq), np.zeros(nq, np.bool_), np.zeros((nq, nq)))
+    if nlaw:
+        # the laws at the set point's joint rates (phi' psi'), which the kernel sets
+        _kernel(system, data, dyn, S, opts, psid, psidd, out, work)
+        dyn.v.law[:] = _laws(system, S.q[None, :], S.qd[None, :], t)[0]
+    nf, rank, status = _kernel(system, data, dyn, S, opts, psid, psidd, out, work)
+    if status:
+        name = system.var_names[int(dyn.v.cols[status - 1])]
+        raise AnalysisError(f"linearize: the loops do not close when {name} moves by "
+                            f"{H_MOTION:g} from the set point: the posture is at or near a "
+                            "singular position; move the set point away from it")
+    M, D, K, F, _, _, Gl, qpl = out
+    cols = dyn.v.cols[:nf].copy()
+    G = dyn.v.Gf[:, :nf].copy()
+    M, D, K, F = M[:nf, :nf].copy(), D[:nf, :nf].copy(), K[:nf, :nf].copy(), F[:nf].copy()
+    messages: list[str] = []
+    if nlaw:
+        _law_derivatives(system, S, G, cols, qpl[:nf], Gl[:nf], psid, t, D, K, messages)
+    # internal -> model units: rows are generalized forces (x gs), columns per unit
+    # of coordinate (/ vs): X_model = gs_i X_int / vs_j
+    Ls = system.length_scale
+    gs = np.where(vs[cols] == 1.0, Ls * Ls, Ls)
+    sc = np.outer(gs, 1.0 / vs[cols])
+    phi = G * vs[:, None] / vs[cols][None, :]
+    lin = Linearization(
+        system, [system.var_names[c] for c in cols], S.sgc[cols].copy(), M * sc, D * sc,
+        K * sc, F * gs, phi, qm.copy(), psid[cols] * vs[cols], psidd[cols] * vs[cols],
+        float(t), _point_derivatives(system, data, dyn, nf, cols),
+        _element_directions(system, data, dyn, nf, cols), messages)
+    lin.rank = rank  # type: ignore[attr-defined]
+    lin._W = dyn.v.W[:, :nf].copy()  # type: ignore[attr-defined]
+    return lin
+
+
+def _kernel(system: System, data: Any, dyn: Any, S: Any, opts: np.ndarray, psid: np.ndarray,
+            psidd: np.ndarray, out: tuple, work: tuple) -> tuple[int, int, int]:
+    q0 = S.q.copy()
+    res = linearize_kernel(system.KP, data.DP, system.YP, dyn.ZP, S, system.gen, opts,
+                           psid, psidd, out, work)
+    S.q[:] = q0
+    return res
+
+
+def _per_coordinate(system: System, values: Any, what: str) -> np.ndarray:
+    """A mapping coordinate -> value (model units) as an (nq,) internal array."""
+    out = np.zeros(system.nq)
+    if values is None:
+        return out
+    if not hasattr(values, "items"):
+        raise InputError(f"{what} must map coordinate names to numbers, e.g. "
+                         "{'crank': 10.0}")
+    for key, v in values.items():
+        c = system.var_index(key)
+        try:
+            x = float(v)
+        except (TypeError, ValueError):
+            raise InputError(f"{what}[{key!r}] must be a number, got {v!r}") from None
+        if not math.isfinite(x):
+            raise InputError(f"{what}[{key!r}] must be finite, got {x}")
+        out[c] = x / system.var_scale[c]
+    return out
+
+
+def _laws(system: System, q: np.ndarray, qd: np.ndarray, t: float) -> np.ndarray:
+    """Law values (rows of q, qd: internal units) at time t."""
+    n = q.shape[0]
+    tr = Trajectory(system, q.copy(), np.ones(n), np.zeros(n, np.int64),
+                    np.zeros((n, system.nq), bool), np.zeros(n, np.int64), [],
+                    tracker=tracker(system))
+    tr.set_rates(qd.copy(), np.zeros_like(qd), np.zeros(n))
+    return law_values(system, tr, np.full(n, float(t)))
+
+
+def _law_derivatives(system: System, S: Any, G: np.ndarray, cols: np.ndarray,
+                     qpl: np.ndarray, Gl: np.ndarray, psid: np.ndarray, t: float,
+                     D: np.ndarray, K: np.ndarray, messages: list[str]) -> None:
+    """Add g_e dlaw_e/dpsi to K and g_e dlaw_e/dpsi' to D (internal units, in place):
+    the laws are black boxes, differentiated by Richardson-extrapolated central
+    differences over the closed postures of the kernel (positions) and over the
+    joint rates phi' (psi' + s e_k) (rates)."""
+    nf = G.shape[1]
+    u = psid[cols]
+    qd0 = G @ u
+    h = H_MOTION
+    rows_q, rows_qd = [], []
+    for lcol in range(nf):
+        for p in range(4):
+            rows_q.append(qpl[lcol, p])
+            rows_qd.append(qd0)  # rates per joint variable held (approximation noted)
+    s = 1e-4 * max(1.0, float(np.max(np.abs(u))) if nf else 1.0)
+    for k in range(nf):
+        for off in (-2.0, -1.0, 1.0, 2.0):
+            rows_q.append(S.q.copy())
+            rows_qd.append(qd0 + off * s * G[:, k])
+    vals = _laws(system, np.array(rows_q), np.array(rows_qd), t)
+    w = np.array([1.0, -8.0, 8.0, -1.0])
+    nl = Gl.shape[1]
+    dpos = (w @ vals[:4 * nf].reshape(nf, 4, -1)) / (12.0 * h)  # (nf, nlaw)
+    drat = (w @ vals[4 * nf:].reshape(nf, 4, -1)) / (12.0 * s)
+    K -= Gl[:, :nl] @ dpos[:, :nl].T
+    D -= Gl[:, :nl] @ drat[:, :nl].T
+    messages.append("load laws differentiated numerically (central differences, "
+                    "Richardson extrapolation)")
+
+
+def _point_derivatives(system: System, data: Any, dyn: Any, nf: int, cols: np.ndarray
+                       ) -> dict[str, np.ndarray]:
+    """dR/dpsi (3, nf) of every point, model units: R'_j = v_bj + w_bj x R (7.25)."""
+    T0 = data.v.T0
+    W = dyn.v.W[:, :nf]
+    Ls, vs = system.length_scale, system.var_scale[cols]
+    out = {}
+    ptbody = system.K.ptbody
+    ptlocal = system.K.ptlocal
+    for p, name in enumerate(system.points):
+        b = int(ptbody[p])
+        R = (T0[b] @ ptlocal[p])[:3]
+        v, w = W[b, :, :3], W[b, :, 3:]
+        out[name] = (v + np.cross(w, R)).T * Ls / vs[None, :]
+    return out
+
+
+def _element_directions(system: System, data: Any, dyn: Any, nf: int, cols: np.ndarray
+                        ) -> dict[str, np.ndarray]:
+    """The generalized force (f,) of a unit force or torque element (9.32, 9.34), model
+    units: u . R'_j at the point of a force, u . w_bj for a torque."""
+    T0 = data.v.T0
+    W = dyn.v.W[:, :nf]
+    Ls, vs = system.length_scale, system.var_scale[cols]
+    Y = system.Y
+    out = {}
+
+    def pos(p: int) -> np.ndarray:
+        b = int(system.K.ptbody[p])
+        return (T0[b] @ system.K.ptlocal[p])[:3]
+
+    for i, name in enumerate(system.elements):
+        kind = int(Y.ekind[i])
+        if kind not in (FORCE, TORQUE):
+            continue
+        first = 1 if kind == FORCE else 0
+        if Y.ept[i, first] >= 0:
+            d = pos(int(Y.ept[i, first + 1])) - pos(int(Y.ept[i, first]))
+            n = np.linalg.norm(d)
+            u = d / n if n > 0 else np.zeros(3)
+        else:
+            u = np.asarray(Y.edir[i], float)
+        b = int(Y.ebody[i])
+        if kind == FORCE:
+            R = pos(int(Y.ept[i, 0]))
+            Rp = W[b, :, :3] + np.cross(W[b, :, 3:], R)  # (nf, 3) internal
+            out[name] = Rp @ u * Ls / vs
+        else:
+            out[name] = W[b, :, 3:] @ u / vs
+    return out
+
+
+# ----------------------------------------------------------------------------- modes
+def _free_blocks(lin: Linearization) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """M_FF, D_FF, K_FF, with M_FF checked (13.3 note: a singular M_FF is a modeling
+    error naming the bodies that move without mass)."""
+    MFF, DFF, KFF = lin.block("M", "FF"), lin.block("D", "FF"), lin.block("K", "FF")
+    _check_mass(lin, MFF)
+    return MFF, DFF, KFF
+
+
+def _check_mass(lin: Linearization, MFF: np.ndarray) -> None:
+    if MFF.size == 0:
+        return
+    lam, vec = np.linalg.eigh(0.5 * (MFF + MFF.T))
+    top = max(float(np.max(np.abs(np.diag(MFF)))), 1e-300)
+    bad = np.flatnonzero(lam <= SINGULAR_M * top)
+    if bad.size == 0:
+        return
+    free = [lin.coords[i] for i in lin.free]
+    v = vec[:, bad[0]]
+    moving = [free[i] for i in np.flatnonzero(np.abs(v) > 1e-6 * np.max(np.abs(v)))]
+    bodies = _moving_bodies(lin, v)
+    raise InputError(
+        "the mass matrix of the free coordinates is singular at this posture: moving "
+        + ", ".join(moving) + " together moves "
+        + (("bodies " + ", ".join(bodies)) if bodies else "no body") + " without "
+        "kinetic energy (no mass or inertia there); give those bodies mass and inertia "
+        "(Model.add_mass, DATA MASS / DATA INERTIA) or specify the coordinate")
+
+
+def _moving_bodies(lin: Linearization, vF: np.ndarray) -> list[str]:
+    """Bodies whose twist sum_j W_{b,j} vF_j is not zero when the FGCs move by vF."""
+    W = lin._W[:, lin.free]  # type: ignore[attr-defined]
+    tw = np.abs(np.einsum("bjk,j->bk", W, vF)).max(axis=1)
+    top = float(tw.max()) if tw.size else 0.0
+    return [lin.system.bodies[b] for b in np.flatnonzero(tw > 1e-9 * max(top, 1e-300))]
+
+
+def modes(lin: Linearization | System, **kwargs: Any) -> Modes:
+    """Natural frequencies, damping ratios, time constants and mode shapes (13.9-13.13).
+
+    ``lin``: a :class:`Linearization`, or a System with the arguments of
+    :func:`linearize`.  Every SGC is locked (x_S = 0); the eigenvalues are
+    those of the first-order system y' = S y, y = (v_F, x_F) (14.11), a general
+    (not symmetric) matrix, so gyroscopic and follower-load terms are kept.
+    Raises :class:`InputError` when M_FF is singular and
+    :class:`AnalysisError` when there are no FGCs.
+    """
+    if isinstance(lin, System):
+        lin = linearize(lin, **kwargs)
+    elif kwargs:
+        raise InputError("modes: arguments besides a Linearization are for a System")
+    nf = lin.free.size
+    if nf == 0:
+        raise AnalysisError("modes: there are no free generalized coordinates (every "
+                            "coordinate is specified), so nothing can vibrate")
+    MFF, DFF, KFF = _free_blocks(lin)
+    Minv = np.linalg.inv(MFF)
+    Sm = np.block([[-Minv @ DFF, -Minv @ KFF], [np.eye(nf), np.zeros((nf, nf))]])
+    lam, eta = np.linalg.eig(Sm)
+    order = np.lexsort((np.round(lam.imag, 12), np.round(np.abs(lam), 12)))
+    lam, eta = lam[order], eta[:, order]
+    scale = max(float(np.max(np.abs(lam))), 1.0)
+    tol = 1e-9 * scale
+    picks = []
+    for k in range(lam.size):
+        if abs(lam[k].imag) <= tol:
+            picks.append(k)
+        elif lam[k].imag > 0:
+            picks.append(k)
+    mlam = lam[picks]
+    shapes = eta[nf:, picks].copy()
+    for k in range(shapes.shape[1]):
+        x = shapes[:, k]
+        i = int(np.argmax(np.abs(x)))
+        if abs(x[i]) > 0:
+            shapes[:, k] = x / x[i]
+        if abs(mlam[k].imag) <= tol:
+            shapes[:, k] = shapes[:, k].real
+    freq = np.full(mlam.size, np.nan)
+    damp = np.full(mlam.size, np.nan)
+    damped = np.zeros(mlam.size)
+    tau = np.full(mlam.size, np.nan)
+    kinds = []
+    for k, z in enumerate(mlam):
+        if abs(z.imag) > tol:
+            freq[k] = abs(z)
+            damp[k] = -z.real / abs(z) + 0.0
+            damped[k] = z.imag
+            kinds.append("oscillatory")
+        elif abs(z.real) <= tol:
+            tau[k] = math.inf
+            kinds.append("neutral")
+        else:
+            tau[k] = -1.0 / z.real
+            kinds.append("overdamped")
+    unstable = mlam.real > tol
+    joint = lin.phi[:, lin.free] @ shapes
+    return Modes(lin, [lin.coords[i] for i in lin.free], lam, mlam, freq, damp, damped, tau,
+                 kinds, unstable, shapes, joint, Sm)
+
+
+# ----------------------------------------------------------------------------- transfer
+def _input_vector(lin: Linearization, inp: Any) -> tuple[tuple[str, str], np.ndarray, int]:
+    """(label, generalized direction over coords (f,), SGC index or -1)."""
+    kind, name = _pair(inp, INPUT_KINDS, "input")
+    system = lin.system
+    if kind == "force":
+        if name not in lin.inputs:
+            known = ", ".join(lin.inputs) or "none"
+            raise InputError(f"input ('force', {name!r}): not a force or torque element of "
+                             f"the model (known: {known})")
+        return (kind, name), lin.inputs[name], -1
+    c = system.var_index(name)
+    vname = system.var_names[c]
+    if kind == "load":
+        return (kind, vname), lin.phi[c].copy(), -1
+    if vname not in lin.coords or not lin.specified[lin.coords.index(vname)]:
+        raise InputError(f"input ('motion', {name!r}): {vname} is not a specified "
+                         "generalized coordinate (SGC) of this linearization; pass it in "
+                         "specified=")
+    return (kind, vname), np.zeros(len(lin.coords)), lin.coords.index(vname)
+
+
+def _output_vector(lin: Linearization, out: Any) -> tuple[tuple[str, str], np.ndarray]:
+    """(label, d output / d psi over coords (f,)) of a position-level output."""
+    kind, name = _pair(out, OUTPUT_KINDS, "output")
+    system = lin.system
+    if "." in name:
+        head, _, axis = name.rpartition(".")
+        if head in lin.points and axis.lower() in ("x", "y", "z"):
+            return (kind, f"{head}.{axis.lower()}"), lin.points[head]["xyz".index(
+                axis.lower())].copy()
+    if name in lin.points:
+        raise InputError(f"output ({kind!r}, {name!r}): name a component of the point, "
+                         f"e.g. {name}.x")
+    c = system.var_index(name)
+    return (kind, system.var_names[c]), lin.phi[c].copy()
+
+
+def _pair(x: Any, kinds: tuple[str, ...], what: str) -> tuple[str, str]:
+    if (not isinstance(x, (tuple, list)) or len(x) != 2 or not isinstance(x[0], str)
+            or not isinstance(x[1], str)):
+        raise InputError(f"{what} must be a pair (kind, name) with kind one of "
+                         f"{', '.join(kinds)}; got {x!r}")
+    k = x[0].lower()
+    if k == "acceleration":
+        k = "accel"
+    if k not in kinds:
+        raise InputError(f"{what} kind {x[0]!r}: expected one of {', '.join(kinds)}")
+    return k, x[1]
+
+
+def _realization(lin: Linearization, b: np.ndarray, p: int, c: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A, B, C, D of the position output c . psi for one input, state (v, x) (13.6).
+
+    Force or load b: M x'' + D x' + K x = b_F u.  SGC motion p (x_p = u):
+    M x'' + D x' + K x = -(M_Fp u'' + D_Fp u' + K_Fp u), realized with the state
+    x' = x + P u, v'' = x'' ... shifted so that no derivative of u remains:
+    P = M^-1 M_Fp, R = M^-1 (D P - D_Fp); x'^. = v'' + R u,
+    v''^. = M^-1 (-K x' - D v'' + (K P - K_Fp - D R) u), y = c_F x' + (c_p - c_F P) u.
+    """
+    MFF, DFF, KFF = _free_blocks(lin)
+    F = lin.free
+    nf = F.size
+    Minv = np.linalg.inv(MFF)
+    A = np.block([[-Minv @ DFF, -Minv @ KFF], [np.eye(nf), np.zeros((nf, nf))]])
+    cF = c[F]
+    C = np.concatenate([np.zeros(nf), cF])[None, :]
+    if p < 0:
+        B = np.concatenate([Minv @ b[F], np.zeros(nf)])[:, None]
+        return A, B, C, np.zeros((1, 1))
+    Mp, Dp, Kp = lin.M[F, p], lin.D[F, p], lin.K[F, p]
+    P = Minv @ Mp
+    R = Minv @ (DFF @ P - Dp)
+    B = np.concatenate([Minv @ (KFF @ P - Kp - DFF @ R), R])[:, None]
+    return A, B, C, np.array([[c[p] - cF @ P]])
+
+
+def transfer_function(lin: Linearization, input: Any, output: Any) -> TransferFunction:
+    """H(s) from ``input`` to ``output`` as a rational function of s (13.18-13.21), every
+    SGC but a motion input locked.  Velocity and acceleration outputs are s and s^2
+    times the position's."""
+    (ilab, b, p), (olab, c) = _input_vector(lin, input), _output_vector(lin, output)
+    if lin.free.size == 0:
+        raise AnalysisError("transfer_function: there are no free generalized coordinates")
+    A, B, C, D = _realization(lin, b, p, c)
+    num, den = _ss2tf(A, B, C, D)
+    extra = OUTPUT_KINDS.index(olab[0])
+    num = np.concatenate([num, np.zeros(extra)])
+    return TransferFunction(ilab, olab, _trim(num), den)
+
+
+def _ss2tf(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray
+           ) -> tuple[np.ndarray, np.ndarray]:
+    """num, den of C (sI - A)^-1 B + D: den = det(sI - A) from the eigenvalues,
+    num = det(sI - A + B C) + (D - 1) den (one input, one output)."""
+    den = np.real(np.poly(np.linalg.eigvals(A)))
+    num = np.real(np.poly(np.linalg.eigvals(A - B @ C))) + (D[0, 0] - 1.0) * den
+    return num, den
+
+
+def _trim(num: np.ndarray) -> np.ndarray:
+    """Drop leading coefficients that are round-off of a cancelled degree."""
+    big = float(np.max(np.abs(num))) if num.size else 0.0
+    k = 0
+    while k < num.size - 1 and abs(num[k]) <= 1e-11 * big:
+        k += 1
+    return num[k:]
+
+
+def frequency_response(lin: Linearization, input: Any, outputs: Any, w: Any
+                       ) -> FrequencyResponse:
+    """H(j w) (13.20, 13.21) of one input to each output at frequencies ``w`` (rad/s),
+    solved at each w from (s^2 M_FF + s D_FF + K_FF) x_F = rhs, not from polynomials."""
+    if isinstance(outputs, tuple) and len(outputs) == 2 and isinstance(outputs[0], str):
+        outputs = [outputs]
+    ilab, b, p = _input_vector(lin, input)
+    outs = [_output_vector(lin, o) for o in outputs]
+    wv = np.atleast_1d(np.asarray(w, float))
+    if wv.ndim != 1 or not np.all(np.isfinite(wv)) or np.any(wv < 0):
+        raise InputError("frequency_response: w must be finite frequencies >= 0 (rad/s)")
+    if lin.free.size == 0:
+        raise AnalysisError("frequency_response: there are no free generalized coordinates")
+    MFF, DFF, KFF = _free_blocks(lin)
+    F = lin.free
+    H = np.zeros((wv.size, len(outs)), complex)
+    for k, om in enumerate(wv):
+        s = 1j * om
+        Z = s * s * MFF + s * DFF + KFF
+        if p < 0:
+            rhs, xs = b[F].astype(complex), 0.0
+        else:
+            rhs = -(s * s * lin.M[F, p] + s * lin.D[F, p] + lin.K[F, p])
+            xs = 1.0
+        try:
+            xF = np.linalg.solve(Z, rhs)
+        except np.linalg.LinAlgError:
+            xF = np.full(F.size, np.nan + 0j)
+        for o, ((kind, _), c) in enumerate(outs):
+            y = c[F] @ xF + (c[p] * xs if p >= 0 else 0.0)
+            H[k, o] = y * s ** OUTPUT_KINDS.index(kind)
+    return FrequencyResponse(wv, H, ilab, [lab for lab, _ in outs])
+
+
+def state_space(lin: Linearization, inputs: Any, outputs: Any) -> StateSpace:
+    """A, B, C, D of the FGC equations (14.11) for ``inputs`` and ``outputs``, state
+    (v_F, x_F) (13.6).  A motion input shifts the state (see :func:`transfer_function`);
+    it then allows only position outputs (a velocity or acceleration output would
+    need derivatives of the input) and no other input."""
+    if isinstance(inputs, tuple) and len(inputs) == 2 and isinstance(inputs[0], str):
+        inputs = [inputs]
+    if isinstance(outputs, tuple) and len(outputs) == 2 and isinstance(outputs[0], str):
+        outputs = [outputs]
+    ins = [_input_vector(lin, i) for i in inputs]
+    outs = [_output_vector(lin, o) for o in outputs]
+    if not ins or not outs:
+        raise InputError("state_space needs at least one input and one output")
+    if lin.free.size == 0:
+        raise AnalysisError("state_space: there are no free generalized coordinates")
+    motion = [lab for lab, _, p in ins if p >= 0]
+    if motion and len(ins) > 1:
+        raise InputError("state_space: an SGC motion input shifts the state, so it must be "
+                         "the only input; build one model per motion input")
+    F = lin.free
+    nf = F.size
+    MFF, DFF, KFF = _free_blocks(lin)
+    Minv = np.linalg.inv(MFF)
+    rows_C, rows_D = [], []
+    if motion:
+        _, b, p = ins[0]
+        for (kind, name), c in outs:
+            if kind != "position":
+                raise InputError(f"state_space: output ({kind!r}, {name!r}) of a motion "
+                                 "input is improper (it needs derivatives of the motion); "
+                                 "use a position output or transfer_function")
+            A, B, C, D = _realization(lin, b, p, c)
+            rows_C.append(C[0])
+            rows_D.append(D[0])
+    else:
+        A = np.block([[-Minv @ DFF, -Minv @ KFF], [np.eye(nf), np.zeros((nf, nf))]])
+        B = np.column_stack([np.concatenate([Minv @ b[F], np.zeros(nf)])
+                             for _, b, _ in ins])
+        bF = np.column_stack([b[F] for _, b, _ in ins])
+        for (kind, _), c in outs:
+            cF = c[F]
+            if kind == "position":
+                rows_C.append(np.concatenate([np.zeros(nf), cF]))
+                rows_D.append(np.zeros(len(ins)))
+            elif kind == "velocity":
+                rows_C.append(np.concatenate([cF, np.zeros(nf)]))
+                rows_D.append(np.zeros(len(ins)))
+            else:
+                rows_C.append(cF @ A[:nf])
+                rows_D.append(cF @ Minv @ bF)
+    free = [lin.coords[i] for i in F]
+    states = [f"{n}'" for n in free] + list(free)
+    return StateSpace(A, B, np.array(rows_C), np.array(rows_D), states,
+                      [lab for lab, _, _ in ins], [lab for lab, _ in outs])
