@@ -17,11 +17,27 @@ compiled system as in Pinocchio and MuJoCo::
 
 from typing import Any
 
-from openimp.dynamics import LoadState, forces
+from openimp.dynamics import (
+    LoadState,
+    forces,
+    frequency_response,
+    linearize,
+    modes,
+    state_space,
+    transfer_function,
+)
 from openimp.errors import AnalysisError, InputError, OpenIMPError
 from openimp.kinematics import BatchResult, sweep, sweep_batch
 from openimp.model import Model
-from openimp.results import Forces, Trajectory
+from openimp.results import (
+    Forces,
+    FrequencyResponse,
+    Linearization,
+    Modes,
+    StateSpace,
+    Trajectory,
+    TransferFunction,
+)
 from openimp.system import State, System
 from openimp.system import compile_model as compile
 
@@ -37,7 +53,8 @@ def load(path: str, **options: Any) -> Any:
 
 
 __all__ = [
-    "AnalysisError", "BatchResult", "Forces", "InputError", "LoadState", "Model", "OpenIMPError",
-    "State", "System", "Trajectory", "__version__", "compile", "forces", "load", "sweep",
-    "sweep_batch",
+    "AnalysisError", "BatchResult", "Forces", "FrequencyResponse", "InputError", "Linearization",
+    "LoadState", "Model", "Modes", "OpenIMPError", "State", "StateSpace", "System", "Trajectory",
+    "TransferFunction", "__version__", "compile", "forces", "frequency_response", "linearize",
+    "load", "modes", "state_space", "sweep", "sweep_batch", "transfer_function",
 ]

@@ -13,10 +13,23 @@ linearisation, time response) call:
 * :mod:`~openimp.dynamics.eom`: the equations of motion at one state,
   M(psi) psi'' + c(psi, psi') = Q(psi, psi', t), with the FGC/SGC partition;
 * :mod:`~openimp.dynamics.laws`: load laws (callables) evaluated per step;
-* :mod:`~openimp.dynamics.analysis`: :func:`forces`, the Python entry.
+* :mod:`~openimp.dynamics.linear`: the linearized equations about a set point
+  (ch 11), compiled;
+* :mod:`~openimp.dynamics.analysis`: :func:`forces`, the Python entry;
+* :mod:`~openimp.dynamics.vibration`: :func:`linearize`, :func:`modes`,
+  :func:`transfer_function`, :func:`frequency_response`, :func:`state_space`
+  (ch 11, 13).
 """
 
 from openimp.dynamics.analysis import forces
 from openimp.dynamics.laws import LoadState
+from openimp.dynamics.vibration import (
+    frequency_response,
+    linearize,
+    modes,
+    state_space,
+    transfer_function,
+)
 
-__all__ = ["LoadState", "forces"]
+__all__ = ["LoadState", "forces", "frequency_response", "linearize", "modes", "state_space",
+           "transfer_function"]
