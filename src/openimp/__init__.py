@@ -22,6 +22,7 @@ from openimp.dynamics import (
     forces,
     frequency_response,
     linearize,
+    mode_motion,
     modes,
     state_space,
     transfer_function,
@@ -56,5 +57,5 @@ __all__ = [
     "AnalysisError", "BatchResult", "Forces", "FrequencyResponse", "InputError", "Linearization",
     "LoadState", "Model", "Modes", "OpenIMPError", "State", "StateSpace", "System", "Trajectory",
     "TransferFunction", "__version__", "compile", "forces", "frequency_response", "linearize",
-    "load", "modes", "state_space", "sweep", "sweep_batch", "transfer_function",
+    "load", "mode_motion", "modes", "state_space", "sweep", "sweep_batch", "transfer_function",
 ]

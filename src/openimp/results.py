@@ -743,7 +743,9 @@ class Linearization:
     ``q`` (nq,) the posture, ``rates``, ``accels`` (f,) and ``t`` the set
     point.  ``points`` maps a point name to its (3, f) derivatives dR/dpsi;
     ``inputs`` an element name to its generalized direction (f,): the
-    generalized force of a unit force or torque.  ``messages``: what was
+    generalized force of a unit force or torque.  ``bodies`` (nb, f, 6): the
+    screws (v, w) of the body operators W_{b,j} (7.20) per unit of each
+    coordinate.  ``rank``: of the loop Jacobian.  ``messages``: what was
     approximated.
     """
 
@@ -761,6 +763,8 @@ class Linearization:
     t: float
     points: dict[str, np.ndarray]
     inputs: dict[str, np.ndarray]
+    bodies: np.ndarray
+    rank: int
     messages: list[str] = field(default_factory=list)
 
     @property

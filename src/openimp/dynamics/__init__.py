@@ -26,10 +26,11 @@ from openimp.dynamics.laws import LoadState
 from openimp.dynamics.vibration import (
     frequency_response,
     linearize,
+    mode_motion,
     modes,
     state_space,
     transfer_function,
 )
 
-__all__ = ["LoadState", "forces", "frequency_response", "linearize", "modes", "state_space",
-           "transfer_function"]
+__all__ = ["LoadState", "forces", "frequency_response", "linearize", "mode_motion", "modes",
+           "state_space", "transfer_function"]

@@ -6,6 +6,7 @@
 * :func:`modes`: eigenvalues of the first-order FGC system with every SGC
   locked (13.9, 14.11), natural frequencies, damping ratios, time
   constants, mode shapes;
+* :func:`mode_motion`: one period of a mode as closed postures, to animate;
 * :func:`transfer_function`, :func:`frequency_response`,
   :func:`state_space`: from a force element, a load on a joint variable or
   an SGC motion to positions, velocities or accelerations of joint variables
@@ -30,6 +31,7 @@ import numpy as np
 from openimp.dynamics.laws import law_values
 from openimp.dynamics.linear import H_MOTION, linearize_kernel
 from openimp.errors import AnalysisError, InputError
+from openimp.kinematics import sweep
 from openimp.kinematics.track import tracker
 from openimp.results import (
     FrequencyResponse,
@@ -118,9 +120,8 @@ def linearize(system: System, q: Any = None, rates: Any = None, accels: Any = No
         system, [system.var_names[c] for c in cols], S.sgc[cols].copy(), M * sc, D * sc,
         K * sc, F * gs, phi, qm.copy(), psid[cols] * vs[cols], psidd[cols] * vs[cols],
         float(t), _point_derivatives(system, data, dyn, nf, cols),
-        _element_directions(system, data, dyn, nf, cols), messages)
-    lin.rank = rank  # type: ignore[attr-defined]
-    lin._W = dyn.v.W[:, :nf].copy()  # type: ignore[attr-defined]
+        _element_directions(system, data, dyn, nf, cols), _body_screws(system, dyn, nf, cols),
+        int(rank), messages)
     return lin
 
 
@@ -193,6 +194,14 @@ def _law_derivatives(system: System, S: Any, G: np.ndarray, cols: np.ndarray,
     D -= Gl[:, :nl] @ drat[:, :nl].T
     messages.append("load laws differentiated numerically (central differences, "
                     "Richardson extrapolation)")
+
+
+def _body_screws(system: System, dyn: Any, nf: int, cols: np.ndarray) -> np.ndarray:
+    """W_{b,j} (nb, nf, 6) per model unit of coordinate j: v in lengths, w in radians."""
+    W = dyn.v.W[:, :nf].copy()
+    vs = system.var_scale[cols]
+    W[:, :, :3] *= system.length_scale
+    return W / vs[None, :, None]
 
 
 def _point_derivatives(system: System, data: Any, dyn: Any, nf: int, cols: np.ndarray
@@ -278,7 +287,7 @@ def _check_mass(lin: Linearization, MFF: np.ndarray) -> None:
 
 def _moving_bodies(lin: Linearization, vF: np.ndarray) -> list[str]:
     """Bodies whose twist sum_j W_{b,j} vF_j is not zero when the FGCs move by vF."""
-    W = lin._W[:, lin.free]  # type: ignore[attr-defined]
+    W = lin.bodies[:, lin.free]
     tw = np.abs(np.einsum("bjk,j->bk", W, vF)).max(axis=1)
     top = float(tw.max()) if tw.size else 0.0
     return [lin.system.bodies[b] for b in np.flatnonzero(tw > 1e-9 * max(top, 1e-300))]
@@ -546,3 +555,44 @@ def state_space(lin: Linearization, inputs: Any, outputs: Any) -> StateSpace:
     states = [f"{n}'" for n in free] + list(free)
     return StateSpace(A, B, np.array(rows_C), np.array(rows_D), states,
                       [lab for lab, _, _ in ins], [lab for lab, _ in outs])
+
+
+# ----------------------------------------------------------------------------- animation
+def mode_motion(modes: Modes, mode: int = 0, amplitude: float = 0.1, steps: int = 48
+                ) -> Trajectory:
+    """One period of mode ``mode`` (0-based index into ``modes``) as exactly closed
+    postures, to draw or animate like any sweep (:mod:`openimp.viz`).
+
+    The FGCs move by amplitude * Re(shape e^{i theta}) about the set point
+    (theta over one turn, ``steps`` frames; the largest FGC moves by
+    ``amplitude``, model units: radians or lengths) and the loops are closed at
+    every frame; the SGCs stay locked.  The trajectory's ``time`` is theta /
+    (2 pi) times the mode's period (1 s for a mode that does not oscillate).
+    """
+    if not isinstance(modes, Modes):
+        raise InputError(f"mode_motion takes the Modes of openimp.modes, got "
+                         f"{type(modes).__name__}")
+    if not (isinstance(mode, (int, np.integer)) and 0 <= mode < modes.count):
+        raise InputError(f"mode_motion: mode must be an index 0..{modes.count - 1}, got "
+                         f"{mode!r}")
+    if not (isinstance(steps, (int, np.integer)) and steps >= 2):
+        raise InputError(f"mode_motion: steps must be an integer >= 2, got {steps!r}")
+    amp = float(amplitude)
+    if not (math.isfinite(amp) and amp > 0):
+        raise InputError(f"mode_motion: amplitude must be a positive number, got {amplitude!r}")
+    lin = modes.linearization
+    system = lin.system
+    theta = np.linspace(0.0, 2 * math.pi, int(steps) + 1)
+    shape = modes.shapes[:, mode]
+    drivers = {}
+    for k, i in enumerate(lin.free):
+        name = lin.coords[i]
+        c = system.var_index(name)
+        drivers[name] = lin.q[c] + amp * np.real(shape[k] * np.exp(1j * theta))
+    for i in lin.sgc:
+        name = lin.coords[i]
+        drivers[name] = np.full(theta.size, lin.q[system.var_index(name)])
+    tr = sweep(system, drivers, start=lin.q)
+    w = modes.damped[mode] if modes.kind[mode] == "oscillatory" else 2 * math.pi
+    tr.time = theta[:tr.nsteps] / w
+    return tr
