@@ -34,11 +34,15 @@ def format_listing(t: Table) -> str:
 
     Time prints as %.6f (a step number as an integer) and values as %.3f (IMP's
     LIST format, reference 2.3); values IMP cannot determine print as ????.
+    A frequency response (LIST DYNAMICS) prints every number with 6
+    significant digits: its magnitudes span decades.
     """
     quantity = t.request.split(maxsplit=1)[-1].upper()
     head = f"Listing of {QUANTITY_WORDS.get(quantity, quantity.lower())} of {t.item}"
     if quantity == "FORCE":
         head = f"Listing of force in {t.item}"
+    elif quantity == "DYNAMICS":
+        head = f"Listing of the frequency response to {t.item}"
     titles = [f"{c}" + (f" ({u})" if u else "") for c, u in zip(t.columns, t.units)]
     widths = [max(12, len(s) + 2) for s in titles]
     lines = [head, "".join(s.rjust(w) for s, w in zip(titles, widths))]
@@ -51,6 +55,8 @@ def format_listing(t: Table) -> str:
                 s = step_text(v)
             elif j == 0 and t.columns[0].lower() in ("time", "step"):
                 s = f"{v:.6f}"
+            elif quantity == "DYNAMICS":
+                s = f"{v:.6g}"
             else:
                 s = f"{v:.3f}"
                 if s == "-0.000":

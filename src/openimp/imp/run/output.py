@@ -24,7 +24,7 @@ from openimp.errors import InputError, OutputError
 from openimp.files import OutputFolder, printable, slug
 from openimp.imp.interp import DEFAULT_TITLE, RunSpec, State, Where, build_model
 from openimp.imp.listing import banner, format_listing, format_store, step_text
-from openimp.imp.run import kinematic
+from openimp.imp.run import kinematic, vibration
 from openimp.imp.run.forces import safe_compute, wants_forces
 from openimp.imp.run.prepare import (
     Prepared,
@@ -198,16 +198,23 @@ def execute_run(spec: RunSpec, ctx: Context) -> Run:
     # tables
     tables: dict[tuple[str, str, str], Table] = {}
     for it in items:
+        if it.kind in vibration.KINDS:
+            continue
         t = make_table(prep, sol, it, notes)
         tables[(it.request.family, it.request.quantity, t.item)] = t
         run.tables.append(t)
+    vib = vibration.analyse(prep, sol, [it for it in items if it.kind in vibration.KINDS],
+                            notes)
+    run.tables.extend(vib.tables)
     # PRINT output per position
-    print_items = [it for it in items if it.request.family == "PRINT"]
+    print_items = [it for it in items if it.request.family == "PRINT" and it.kind != "dynamics"]
     if print_items:
         for k in range(sol.n):
             ctx.say(f"step = {step_text(sol.times[k])}" if stepped(state)
                     else f"time = {sol.times[k]:.6f}")
             for line in print_step(prep, sol, k, tables, print_items):
+                ctx.say(line)
+            for line in vib.steps.get(k, []):
                 ctx.say(line)
     for note in notes:
         run.messages.append(note)
@@ -221,6 +228,13 @@ def execute_run(spec: RunSpec, ctx: Context) -> Run:
     elif force_failure:
         run.failure = force_failure
     run.interrupted = sol.interrupted
+    for text in vib.problems:
+        run.unsupported.append(text)
+        ctx.say(f"*** {text} ***")
+    if vib.after:  # PRINT DYNAMICS, for the last position of the run
+        ctx.say("")
+        for line in vib.after:
+            ctx.say(line)
     # listings
     for t in run.tables:
         if t.request.startswith("LIST"):
@@ -294,7 +308,10 @@ def _graphics(prep: Prepared, sol: Solution, run: Run, ctx: Context) -> None:
         for t in plots:
             name = f"run{k}_plot_{slug(t.request.split()[-1])}_{slug(t.item)}.png"
             x = 1 if plot_driver(prep) is not None else 0
-            ctx.picture(name, where, lambda p, t=t, x=x: viz.plot_png(t, p, x=x))
+            if t.request == "PLOT DYNAMICS":  # a Bode plot against the frequency
+                ctx.picture(name, where, lambda p, t=t: vibration.bode_png(t, p))
+            else:
+                ctx.picture(name, where, lambda p, t=t, x=x: viz.plot_png(t, p, x=x))
     except Exception as exc:
         ctx.notes(f"{where[0]}:{where[1]}: run {k}: graphics failed ({type(exc).__name__}: "
                   f"{printable(str(exc), 200)}); the numeric results are not affected")

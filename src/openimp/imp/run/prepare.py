@@ -38,13 +38,45 @@ class Driver:
     inp: InputDef
 
 
+@dataclass(frozen=True)
+class DynInput:
+    """The input of a DYNAMICS request, named as :func:`openimp.transfer_function` takes it."""
+
+    kind: str  # force, load or motion
+    key: str  # the System's element name or joint variable name
+    label: str  # in IMP's words: force PUSH, load on joint A 1, motion of joint A 1
+    unit: str  # the unit of the input as the deck gives it
+    gain: float  # model-unit input per unit of the IMP input (sign, degrees)
+
+
+@dataclass(frozen=True)
+class DynOutput:
+    """One output of a DYNAMICS request: a joint variable or a point component."""
+
+    kind: str  # position, velocity or accel
+    key: str  # the System's joint variable name or "point.x"
+    label: str  # POSITION A 1, VELOCITY TIP X
+    unit: str  # as the listings print it: deg for an angle's position
+    gain: float  # IMP output per model-unit output (sign, degrees)
+
+
+@dataclass
+class DynSpec:
+    """A checked DYNAMICS request: its input, outputs and (LIST, PLOT) frequencies."""
+
+    input: DynInput
+    outputs: list[DynOutput]
+    w: np.ndarray | None = None  # rad/s
+
+
 @dataclass
 class Item:
     """One item of one request: what to tabulate."""
 
     request: Request
-    kind: str  # joint, point, link, spring, damper, value, heading
+    kind: str  # joint, point, link, spring, damper, value, heading, modes, dynamics
     name: str
+    dyn: DynSpec | None = None  # the input and outputs of a DYNAMICS request
 
 
 @dataclass
@@ -110,8 +142,13 @@ def _request_items(state: State, built: Built
     model = built.model
     for req in state.requests:
         q = req.quantity
-        if q in ("FREQUENCY", "DYNAMICS"):
-            unsupported.append(req)
+        if q == "DYNAMICS":  # checked once the input motions are known (dynamics_items)
+            continue
+        if q == "FREQUENCY":
+            key = (req.family, q, "modes", "")
+            if key not in seen:
+                seen.add(key)
+                items.append(Item(req, "modes", "modes"))
             continue
         if q == "FORCE":
             _force_items(req, state, built, items, skipped, seen)
@@ -171,6 +208,162 @@ def _request_items(state: State, built: Built
     return items, unsupported, skipped
 
 
+# ----------------------------------------------------------------- FREQUENCY, DYNAMICS
+class _IgnoredError(Exception):
+    """Why a DYNAMICS request is ignored (IMP: msg, and the request is skipped)."""
+
+
+#: what a DYNAMICS output kind is called by openimp.transfer_function
+_OUT_KIND = {"POSITION": "position", "VELOCITY": "velocity", "ACCEL": "accel"}
+#: the units listings print (reference §2.3): degrees for an angle's position only
+_OUT_UNIT = {("angle", "POSITION"): "deg", ("angle", "VELOCITY"): "rad/s",
+             ("angle", "ACCEL"): "rad/s^2", ("length", "POSITION"): "length",
+             ("length", "VELOCITY"): "length/s", ("length", "ACCEL"): "length/s^2"}
+
+
+def frequency_grid(w0: float, wf: float, winc: float) -> np.ndarray:
+    """The frequencies (rad/s) of LIST and PLOT DYNAMICS (reference §9): w0, then
+    w0 + winc, then logarithmic steps of the same ratio (w0 + winc) / w0 while
+    they stay below wf, and wf as the last one.  Raises ``_IgnoredError`` unless
+    w0, wf, winc > 0 and wf > w0, or when the grid would exceed ``MAX_STEPS`` rows."""
+    if not (w0 > 0 and wf > 0 and winc > 0):
+        raise _IgnoredError(f"the frequencies w0, wf, winc must all be > 0 rad/s; they are "
+                       f"{number_text(w0)}, {number_text(wf)}, {number_text(winc)}")
+    if not wf > w0:
+        raise _IgnoredError(f"the final frequency wf = {number_text(wf)} must be greater than the "
+                       f"first w0 = {number_text(w0)}")
+    count = math.log(wf / w0) / math.log1p(winc / w0)
+    if not count <= MAX_STEPS - 2:  # also a ratio that rounds to 1
+        raise _IgnoredError(f"w0 = {number_text(w0)} to wf = {number_text(wf)} in steps of ratio "
+                       f"(w0 + winc) / w0 = 1 + {number_text(winc / w0)} is more than "
+                       f"{MAX_STEPS} frequencies (limit MAX_STEPS); give a larger winc")
+    n = math.floor(count + 1e-9)
+    w = w0 * ((w0 + winc) / w0) ** np.arange(n + 1)
+    if w[-1] < wf * (1.0 - 1e-9):
+        return np.append(w, wf)
+    w[-1] = wf
+    return w
+
+
+def _no_fgc(freedom: tuple[int, int], ndrivers: int) -> str:
+    return (f"the run has no free generalized coordinate (mobility {freedom[0]} at the "
+            f"starting posture, {ndrivers} input motion(s)): every coordinate is specified, "
+            "so nothing can vibrate")
+
+
+def _dyn_input(fields: dict[str, Any], state: State, built: Built, system: Any,
+               drivers: list[Driver]) -> DynInput:
+    """The input of a DYNAMICS request (FORCE element; FORCE, joint, variable; MOTION,
+    joint, variable), or ``_IgnoredError``."""
+    kind, name, nin = fields["input"], fields["namein"], int(fields["nin"])
+    ex = state.extras
+    element = ("force" if name in ex.get("forces", {}) else
+               "torque" if name in ex.get("torques", {}) else None)
+    if kind == "FORCE" and element is not None and (nin == 0 or name not in built.joints):
+        if nin != 0:
+            raise _IgnoredError(f"{element.upper()} element {name} takes nin = 0, not {nin}")
+        if (element, name) in built.dyn.deleted:
+            raise _IgnoredError(built.dyn.deleted[(element, name)])
+        return DynInput("force", built.dyn.names[(element, name)], f"{element} {name}",
+                        "force" if element == "force" else "force*length", 1.0)
+    if name not in built.joints:
+        what = ("a FORCE or TORQUE element or a joint" if kind == "FORCE" else
+                "a joint with an input motion")
+        raise _IgnoredError(f"the input {kind} {name}: {name} is not {what} defined by EXECUTE")
+    ij = built.joints[name][0]
+    if not 1 <= nin <= ij.nvar:
+        raise _IgnoredError(f"the input {kind} {name} {nin}: joint {name} ({ij.keyword}) has "
+                       + (f"variables 1 to {ij.nvar}" if ij.nvar > 1 else
+                          "variable 1" if ij.nvar else "no variable")
+                       + "; nin gives the joint variable")
+    d = ij.drive[nin - 1]
+    if d is None:
+        raise _IgnoredError(f"the input {kind} {name} {nin}: variable {nin} of a {ij.keyword} "
+                       "joint cannot be an input (openimp has no load or motion on it)")
+    key = system.var_names[system.joint_vars(name).start + d[0]]
+    angle = ij.var_kinds[nin - 1] == "angle"
+    driven = any(dr.joint == name and dr.var == nin - 1 for dr in drivers)
+    if kind == "FORCE":
+        if driven:
+            raise _IgnoredError(f"joint {name} {nin} is an input motion (SGC) of this run, locked, "
+                           f"so a load on it moves nothing; use MOTION, {name}, {nin}")
+        return DynInput("load", key, f"load on joint {name} {nin}",
+                        "force*length" if angle else "force", d[1])
+    if not driven:
+        raise _IgnoredError(f"the input MOTION {name} {nin}: joint {name} {nin} is not an input "
+                       "motion (SGC) of this run; give it DATA POSITION or DATA MOTION, or "
+                       "use a FORCE input")
+    return DynInput("motion", key, f"motion of joint {name} {nin}",
+                    "deg" if angle else "length", d[1] * (math.pi / 180.0 if angle else 1.0))
+
+
+def _dyn_outputs(kind: str, name: str, state: State, built: Built, system: Any
+                 ) -> tuple[list[DynOutput], list[str]]:
+    """The outputs of one pair ``kind, name`` (every variable of a joint, X Y Z of a
+    point) and why some or all of it is dropped."""
+    okind = _OUT_KIND[kind]
+    if name in built.joints:
+        ij = built.joints[name][0]
+        start = system.joint_vars(name).start
+        outs, why = [], []
+        for k, d in enumerate(ij.drive):
+            if d is None:
+                why.append(f"the output {kind} {name} {k + 1} is dropped: variable {k + 1} of "
+                           f"a {ij.keyword} joint is not available as an output")
+                continue
+            vk = ij.var_kinds[k]
+            gain = d[1] * (180.0 / math.pi if vk == "angle" and kind == "POSITION" else 1.0)
+            outs.append(DynOutput(okind, system.var_names[start + d[0]], f"{kind} {name} {k + 1}",
+                                  _OUT_UNIT[(vk, kind)], gain))
+        if not ij.nvar:
+            why.append(f"the output {kind} {name} is dropped: joint {name} (RIGID) has no "
+                       "variable")
+        return outs, why
+    if name in built.model.points:
+        return [DynOutput(okind, f"{name}.{ax.lower()}", f"{kind} {name} {ax}",
+                          _OUT_UNIT[("length", kind)], 1.0) for ax in "XYZ"], []
+    what = ("a point on a link that is in no joint (deleted at EXECUTE)" if name in state.points
+            else "not a joint or point defined by EXECUTE")
+    return [], [f"the output {kind} {name} is dropped: {name} is {what}"]
+
+
+def dynamics_items(state: State, built: Built, system: Any, drivers: list[Driver],
+                   freedom: tuple[int, int], items: list[Item], skipped: list[str]) -> None:
+    """The items of the DYNAMICS requests of a kinematic run, checked as IMP does
+    (reference §9): a bad frequency range, input, namein or nin, or no free
+    generalized coordinate, ignores the request with a message; a bad output
+    pair is dropped with a message.  A FREQUENCY request with no FGC is kept
+    (IMP says so at each position) and reported."""
+    nd = len(drivers)
+    for it in items:
+        if it.kind == "modes" and freedom[1] == 0:
+            w = it.request.where
+            skipped.append(f"{w[0]}:{w[1]}: {it.request.keyword} is not produced: "
+                           + _no_fgc(freedom, nd))
+    for req in state.requests:
+        if req.quantity != "DYNAMICS":
+            continue
+        f = req.statement.fields
+        loc = f"{req.where[0]}:{req.where[1]}: {req.keyword}"
+        try:
+            w = frequency_grid(f["w0"], f["wf"], f["winc"]) if "w0" in f else None
+            inp = _dyn_input(f, state, built, system, drivers)
+            if freedom[1] == 0:
+                raise _IgnoredError(_no_fgc(freedom, nd))
+        except _IgnoredError as why:
+            skipped.append(f"{loc} is not produced: {why}")
+            continue
+        outputs: list[DynOutput] = []
+        for kind, name in f["pairs"]:
+            outs, why = _dyn_outputs(kind, name, state, built, system)
+            outputs += outs
+            skipped.extend(f"{loc}: {text}" for text in why)
+        if outputs:
+            items.append(Item(req, "dynamics", inp.label, DynSpec(inp, outputs, w)))
+        else:
+            skipped.append(f"{loc} is not produced: none of its output pairs can be computed")
+
+
 def _drivers(state: State, built: Built, system: Any) -> list[Driver]:
     out: list[Driver] = []
     for name, inp in state.inputs.items():
@@ -207,18 +400,21 @@ def validate(spec: RunSpec) -> Prepared:
     system = compile_built(built, state, spec.where)
     items, unsupported, skipped = _request_items(state, built)
     drivers = _drivers(state, built, system) if spec.mode == "kinematic" else []
+    freedom = (0, 0)
     if drivers:
         cols = np.array([d.column for d in drivers], np.int64)
         if len(set(cols.tolist())) != len(cols):  # pragma: no cover - one input per joint
             raise InputError("EXECUTE: a joint variable is driven twice", spec.where)
-        start = make_state(system)
-        start.sgc[cols] = True
         try:
-            check_drivers(system, start, cols, state.tolerance("SYSTEM")[0], True)
+            freedom = _freedom(system, cols, state.tolerance("SYSTEM")[0])
         except InputError as exc:
             where = drivers[-1].inp.where
             raise InputError(f"EXECUTE: {exc} (the input motions are given by DATA POSITION / "
                              "DATA MOTION statements)", where) from None
+    elif spec.mode == "kinematic":
+        freedom = _freedom(system, np.zeros(0, np.int64), state.tolerance("SYSTEM")[0])
+    if spec.mode == "kinematic":
+        dynamics_items(state, built, system, drivers, freedom, items, skipped)
     prep = Prepared(spec, built, system, drivers, items, unsupported, skipped)
     if spec.mode == "kinematic":
         _check_size(prep)
@@ -226,13 +422,23 @@ def validate(spec: RunSpec) -> Prepared:
     return prep
 
 
+def _freedom(system: Any, cols: np.ndarray, pivot_tol: float) -> tuple[int, int]:
+    """(mobility, number of FGCs) at the starting posture with the joint variables
+    ``cols`` specified (raises InputError as :func:`check_drivers` does)."""
+    start = make_state(system)
+    start.sgc[cols] = True
+    free, rank, _ = check_drivers(system, start, cols, pivot_tol, True)
+    return system.nq - rank, len(free)
+
+
 def not_produced(spec: RunSpec) -> tuple[str | None, list[str]]:
     """What one EXECUTE will not produce, found before anything is solved.
 
     Returns the reason why the whole run produces nothing (an EXECUTE in a mode
     openimp has not built), or None, and one located message per request that
-    the run cannot answer (FREQUENCY, DYNAMICS; FORCE of a spring or damper deleted
-    at EXECUTE).  The run reports
+    the run cannot answer (FORCE of a spring or damper deleted at EXECUTE; a
+    FREQUENCY or DYNAMICS request with no free generalized coordinate, a bad
+    input, output pair or frequency range).  The run reports
     exactly these (``Run.failure``, ``Run.unsupported``) and ``openimp check``
     lists them, so the two never disagree.  Raises :class:`InputError` as
     :func:`validate` does.
@@ -245,15 +451,8 @@ def not_produced(spec: RunSpec) -> tuple[str | None, list[str]]:
                 f"(FIND {state.find}" + (f" at {fw[0]}:{fw[1]}" if fw else "")
                 + f"): {what} analysis is not built yet in openimp; this run "
                 "produces no results"), []
-    texts = []
     prep = validate(spec)
-    for req in prep.unsupported:
-        texts.append(f"{req.where[0]}:{req.where[1]}: {req.keyword} is not produced: "
-                     + ("linearized vibration analysis" if req.quantity == "FREQUENCY" else
-                        "transfer-function analysis")
-                     + " is not built yet in openimp (the other requests are)")
-    texts.extend(prep.skipped)
-    return None, texts
+    return None, list(prep.skipped)
 
 
 def trailing_requests(deck: Any) -> list[str]:
