@@ -144,3 +144,29 @@ def test_announcer_says_when_the_force_kernels_compile_too():
     talk.close()
     lines = buf.getvalue().splitlines()
     assert len(lines) == 2 and "compiling the force kernels (the first run" in lines[0]
+
+
+def test_announcer_names_the_linearization_kernels():
+    """The linearization kernel is its own group; the force stages it compiles inside it
+    (nested compiles) do not announce the force kernels."""
+    import io as _io
+    import types
+
+    def kernel(name, module):
+        fn = types.FunctionType((lambda: None).__code__, {}, name)
+        fn.__module__ = module
+        return types.SimpleNamespace(py_func=fn)
+
+    buf = _io.StringIO()
+    talk = _warm.Announcer(buf, live=False)
+    talk._on_start(kernel("sweep_steps", "openimp.kinematics.sweep"))
+    talk.depth -= 1
+    talk._on_start(kernel("linearize_kernel", "openimp.dynamics.linear"))
+    talk._on_start(kernel("mass_matrix", "openimp.dynamics.inertia"))  # nested
+    talk.depth -= 2
+    talk.close()
+    lines = buf.getvalue().splitlines()
+    assert len(lines) == 3, lines
+    assert "compiling the linearization kernels too" in lines[1]
+    assert f"about {_warm.LINEAR_COMPILE_SECONDS} s" in lines[1]
+    assert "2 kernels compiled" in lines[2]

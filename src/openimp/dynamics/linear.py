@@ -268,6 +268,16 @@ def load_rates(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, dF: np.ndar
 
 
 @njit(nrt=False)
+def _setup(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | None,
+           ptol: float) -> tuple[int, int]:
+    """:func:`~openimp.dynamics.eom.generalized` and the global pseudo-inertias at S.q (one
+    compiled call: the stages are inlined once, not at every caller)."""
+    rank, nf = generalized(KP, DP, ZP, S, gen, ptol)
+    body_inertias(KP, DP, YP, ZP)
+    return rank, nf
+
+
+@njit(nrt=False)
 def _rate_forces(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
                  gen: np.ndarray | None, rank: int, nf: int, u: np.ndarray,
                  cv: np.ndarray, Qv: np.ndarray) -> tuple[float, float]:
@@ -290,10 +300,9 @@ def _motion_terms(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
     beforehand, with the coordinates of z.cols held: the velocity-dependent part of
     the residual, whose psi-derivative is what the book's K leaves out.  Returns the
     rank (the caller checks that the coordinates are the same)."""
-    rank, nf2 = generalized(KP, DP, ZP, S, gen, ptol)
+    rank, nf2 = _setup(KP, DP, YP, ZP, S, gen, ptol)
     if nf2 != nf:
         return -1
-    body_inertias(KP, DP, YP, ZP)
     mass_matrix(KP, ZP, Mw)
     _rate_forces(KP, DP, YP, ZP, S, gen, rank, nf, u, cv, Qv)
     for i in range(nf):
@@ -330,13 +339,12 @@ def linearize_kernel(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
     ptol = opts[0]
     nq = S.q.shape[0]
     nb = Km.order.shape[0]
-    rank, nf = generalized(KP, DP, ZP, S, gen, ptol)
+    rank, nf = _setup(KP, DP, YP, ZP, S, gen, ptol)
     cols = z.cols
     for j in range(nf):
         u[j] = psid[cols[j]]
         a[j] = psidd[cols[j]]
         zero[j] = 0.0
-    body_inertias(KP, DP, YP, ZP)
     mass_matrix(KP, ZP, M[:nf, :nf])
     # F (11.10) at the set point
     _rate_forces(KP, DP, YP, ZP, S, gen, rank, nf, u[:nf], cv, Qv)
@@ -427,7 +435,6 @@ def linearize_kernel(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
     for c in range(nq):
         S.q[c] = q0[c]
         S.sgc[c] = sgc0[c]
-    generalized(KP, DP, ZP, S, gen, ptol)
-    body_inertias(KP, DP, YP, ZP)
+    _setup(KP, DP, YP, ZP, S, gen, ptol)
     _rate_forces(KP, DP, YP, ZP, S, gen, rank, nf, u[:nf], cv, Qv)
     return nf, rank, status
