@@ -391,6 +391,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--quick", action="store_true", help="smoke test: few variants, 1e5 postures")
     p.add_argument("--no-cold", action="store_true", help="skip the empty-cache JIT compile run")
     p.add_argument("--no-cli", action="store_true", help="skip `openimp run` start-up")
+    p.add_argument("--no-vibration", action="store_true",
+                   help="skip the linearization/modes benchmark (benchmarks.vibration)")
     p.add_argument("--out", default=None,
                    help="report file (default benchmarks/results.md for a full run, "
                         "benchmarks/results-partial.md for --quick or a subset)")
@@ -449,6 +451,13 @@ def main(argv: list[str] | None = None) -> int:
             h0 = src_hash()
             extras["cli"] = bench_cli_startup(outdir)
             extras["cli"]["src_changed"] = src_hash() != h0
+        if "openimp" in tools and not a.no_vibration:
+            from benchmarks import vibration
+
+            vib_repeats = 1 if a.quick else 3
+            vib = vibration.run_workers(vib_repeats)
+            vib_text = vibration.section(vib, vib_repeats)
+            extras["vibration"] = vibration.summary(vib)
 
     from importlib import metadata
 
@@ -464,6 +473,8 @@ def main(argv: list[str] | None = None) -> int:
             "python": platform.python_version(), "numpy": np.__version__,
             "versions": versions, "total_s": time.perf_counter() - t0}
     text = report(results, extras, meta)
+    if "vibration" in extras:
+        text += "\n" + vib_text
     print(text)
     full = (not a.quick and set(cases) == {*CASE_ORDER, "million"}
             and set(tools) == set(TOOL_ORDER))
