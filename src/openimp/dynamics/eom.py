@@ -185,12 +185,16 @@ def equations(system: System, q: Any = None, rates: Any = None, *,
         psid[c] = float(v) / system.var_scale[c]
     data = make_data(system, nq)
     dyn = make_dyn_data(system, nq)
+    M, cv, Qv = np.zeros((nq, nq)), np.zeros(nq), np.zeros(nq)
     if system.laws:
+        # the laws read the joint rates phi' psi', which the first evaluation sets
+        eom(system.KP, data.DP, system.YP, dyn.ZP, S, system.gen, float(pivot_tol), psid,
+            (M, cv, Qv))
         one = Trajectory(system, S.q[None, :].copy(), np.ones(1), np.zeros(1, np.int64),
                          np.zeros((1, nq), bool), np.zeros(1, np.int64), [],
                          tracker=tracker(system), sgc=S.sgc.copy())
+        one.set_rates(S.qd[None, :].copy(), np.zeros((1, nq)), np.zeros(1))
         dyn.v.law[:] = law_values(system, one, np.array([t]))[0]
-    M, cv, Qv = np.zeros((nq, nq)), np.zeros(nq), np.zeros(nq)
     nf, _, ke, pe = eom(system.KP, data.DP, system.YP, dyn.ZP, S, system.gen,
                         float(pivot_tol), psid, (M, cv, Qv))
     cols = dyn.v.cols[:nf].copy()

@@ -295,16 +295,19 @@ def _rate_forces(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
 def _motion_terms(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
                   gen: np.ndarray | None, ptol: float, nf: int, u: np.ndarray,
                   a: np.ndarray, zero: np.ndarray, Mw: np.ndarray, cv: np.ndarray,
-                  Qv: np.ndarray, r: np.ndarray) -> int:
+                  Qv: np.ndarray, r: np.ndarray, qd: np.ndarray) -> int:
     """r = M psi''* + c(psi, u) - Q(psi, u) + Q(psi, 0) (nf,) at the posture S.q, closed
     beforehand, with the coordinates of z.cols held: the velocity-dependent part of
-    the residual, whose psi-derivative is what the book's K leaves out.  Returns the
-    rank (the caller checks that the coordinates are the same)."""
+    the residual, whose psi-derivative is what the book's K leaves out; qd (nq,) the
+    joint rates phi' u there.  Returns the rank, -1 when the coordinates are not
+    the same."""
     rank, nf2 = _setup(KP, DP, YP, ZP, S, gen, ptol)
     if nf2 != nf:
         return -1
     mass_matrix(KP, ZP, Mw)
     _rate_forces(KP, DP, YP, ZP, S, gen, rank, nf, u, cv, Qv)
+    for c in range(qd.shape[0]):
+        qd[c] = S.qd[c]
     for i in range(nf):
         s = cv[i] - Qv[i]
         for j in range(nf):
@@ -325,14 +328,15 @@ def linearize_kernel(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
     opts = (pivot tolerance, closure tolerance, motion step h, differentiate
     motion terms 0/1, keep the closed postures 0/1).  psid, psidd: (nq,) rates
     and accelerations of the generalized coordinates (others ignored).
-    out = (M, D, K, F, P2, A2, Gl, qpl): M, D, K (nq, nq) and F (nq,), their
+    out = (M, D, K, F, P2, A2, Gl, qpl, qdpl): M, D, K (nq, nq) and F (nq,), their
     leading (nf, nf) used; P2, A2 of :func:`second_derivatives`; Gl (nq, nlaw)
     the generalized direction of every law (dQ/dlaw); qpl (nq, 4, nq) the
-    postures closed at psi* + (-2h, -h, h, 2h) e_l.  work = (u, a, zero, cv,
+    postures closed at psi* + (-2h, -h, h, 2h) e_l, qdpl the joint rates there
+    (phi' psi'*; with the motion terms only, else 0).  work = (u, a, zero, cv,
     Qv, cp, Qp, r, dF, dfq, q0, sgc0, Mw) scratch.  Returns (nf, rank, status):
     status 0, or l + 1 when the closure at coordinate l failed.
     """
-    M, D, K, F, P2, A2, Gl, qpl = out
+    M, D, K, F, P2, A2, Gl, qpl, qdpl = out
     u, a, zero, cv, Qv, cp, Qp, r, dF, dfq, q0, sgc0, Mw = work
     Km = model_views(KP)
     z = dyn_data_views(ZP)
@@ -421,7 +425,7 @@ def linearize_kernel(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
                 qpl[l, p, c] = S.q[c]
             if moving:
                 if _motion_terms(KP, DP, YP, ZP, S, gen, ptol, nf, u[:nf], a[:nf],
-                                 zero[:nf], Mw[:nf, :nf], cv, Qv, r) < 0:
+                                 zero[:nf], Mw[:nf, :nf], cv, Qv, r, qdpl[l, p]) < 0:
                     status = l + 1
                     break
                 for i in range(nf):

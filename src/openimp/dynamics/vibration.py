@@ -89,7 +89,7 @@ def linearize(system: System, q: Any = None, rates: Any = None, accels: Any = No
     nb = len(system.bodies)
     out = (np.zeros((nq, nq)), np.zeros((nq, nq)), np.zeros((nq, nq)), np.zeros(nq),
            np.zeros((nq, nq, nq)), np.zeros((nb, nq, nq, 6)), np.zeros((nq, nlaw)),
-           np.zeros((nq, 4, nq)))
+           np.zeros((nq, 4, nq)), np.zeros((nq, 4, nq)))
     work = (np.zeros(nq), np.zeros(nq), np.zeros(nq), np.zeros(nq), np.zeros(nq),
             np.zeros(nq), np.zeros(nq), np.zeros(nq), np.zeros((nb, 6)), np.zeros(nq),
             np.zeros(nq), np.zeros(nq, np.bool_), np.zeros((nq, nq)))
@@ -103,13 +103,14 @@ def linearize(system: System, q: Any = None, rates: Any = None, accels: Any = No
         raise AnalysisError(f"linearize: the loops do not close when {name} moves by "
                             f"{H_MOTION:g} from the set point: the posture is at or near a "
                             "singular position; move the set point away from it")
-    M, D, K, F, _, _, Gl, qpl = out
+    M, D, K, F, _, _, Gl, qpl, qdpl = out
     cols = dyn.v.cols[:nf].copy()
     G = dyn.v.Gf[:, :nf].copy()
     M, D, K, F = M[:nf, :nf].copy(), D[:nf, :nf].copy(), K[:nf, :nf].copy(), F[:nf].copy()
     messages: list[str] = []
     if nlaw:
-        _law_derivatives(system, S, G, cols, qpl[:nf], Gl[:nf], psid, t, D, K, messages)
+        _law_derivatives(system, S, G, cols, qpl[:nf], qdpl[:nf], Gl[:nf], psid, t, D, K,
+                         messages)
     # internal -> model units: rows are generalized forces (x gs), columns per unit
     # of coordinate (/ vs): X_model = gs_i X_int / vs_j
     Ls = system.length_scale
@@ -165,12 +166,12 @@ def _laws(system: System, q: np.ndarray, qd: np.ndarray, t: float) -> np.ndarray
 
 
 def _law_derivatives(system: System, S: Any, G: np.ndarray, cols: np.ndarray,
-                     qpl: np.ndarray, Gl: np.ndarray, psid: np.ndarray, t: float,
-                     D: np.ndarray, K: np.ndarray, messages: list[str]) -> None:
+                     qpl: np.ndarray, qdpl: np.ndarray, Gl: np.ndarray, psid: np.ndarray,
+                     t: float, D: np.ndarray, K: np.ndarray, messages: list[str]) -> None:
     """Add g_e dlaw_e/dpsi to K and g_e dlaw_e/dpsi' to D (internal units, in place):
     the laws are black boxes, differentiated by Richardson-extrapolated central
     differences over the closed postures of the kernel (positions) and over the
-    joint rates phi' (psi' + s e_k) (rates)."""
+    joint rates phi' (psi' + s e_k) (rates), at the generalized rates of the set point."""
     nf = G.shape[1]
     u = psid[cols]
     qd0 = G @ u
@@ -179,7 +180,7 @@ def _law_derivatives(system: System, S: Any, G: np.ndarray, cols: np.ndarray,
     for lcol in range(nf):
         for p in range(4):
             rows_q.append(qpl[lcol, p])
-            rows_qd.append(qd0)  # rates per joint variable held (approximation noted)
+            rows_qd.append(qdpl[lcol, p])  # phi'(psi) psi'*: 0 at rest
     s = 1e-4 * max(1.0, float(np.max(np.abs(u))) if nf else 1.0)
     for k in range(nf):
         for off in (-2.0, -1.0, 1.0, 2.0):
