@@ -960,3 +960,42 @@ class StateSpace:
         for j, n in enumerate(names):
             cols[n] = full[:, j]
         return cols
+
+
+@dataclass
+class ModeMap:
+    """Natural frequencies and damping ratios at every posture of a motion (13.9), every
+    SGC locked: a frequency-versus-posture map.
+
+    ``q`` (steps, nq): the postures (model units).  Per step, the modes sorted by
+    |lambda|: ``eigenvalues`` (steps, 2 n) complex (n the largest FGC count,
+    NaN-padded); ``frequency`` and ``damping`` (steps, n): natural frequency
+    (rad/s) and damping ratio of each oscillatory mode, slowest first;
+    ``time_constant`` (steps, 2 n): -1/lambda of each real eigenvalue (s);
+    ``unstable`` (steps,): a growing mode at that step; ``coords``: the FGCs of
+    every step; ``messages``: steps with no result and why.
+    """
+
+    system: Any
+    q: np.ndarray
+    coords: list[list[str]]
+    eigenvalues: np.ndarray
+    frequency: np.ndarray
+    damping: np.ndarray
+    time_constant: np.ndarray
+    unstable: np.ndarray
+    messages: list[str] = field(default_factory=list)
+
+    @property
+    def nsteps(self) -> int:
+        """Number of postures."""
+        return int(self.q.shape[0])
+
+    def to_table(self) -> dict[str, Any]:
+        """Columns: step, then the frequency (rad/s) and damping ratio of every mode."""
+        cols: dict[str, Any] = {"step": np.arange(self.nsteps)}
+        for k in range(self.frequency.shape[1]):
+            cols[f"frequency {k + 1}"] = self.frequency[:, k].copy()
+            cols[f"damping {k + 1}"] = self.damping[:, k].copy()
+        cols["unstable"] = self.unstable.copy()
+        return cols

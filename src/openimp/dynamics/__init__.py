@@ -28,9 +28,11 @@ from openimp.dynamics.vibration import (
     linearize,
     mode_motion,
     modes,
+    modes_along,
     state_space,
     transfer_function,
 )
 
 __all__ = ["LoadState", "forces", "frequency_response", "linearize", "mode_motion", "modes",
+           "modes_along",
            "state_space", "transfer_function"]

@@ -442,3 +442,37 @@ def linearize_kernel(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
     _setup(KP, DP, YP, ZP, S, gen, ptol)
     _rate_forces(KP, DP, YP, ZP, S, gen, rank, nf, u[:nf], cv, Qv)
     return nf, rank, status
+
+
+@njit(nrt=False)
+def linearize_steps(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
+                    gen: np.ndarray | None, opts: np.ndarray, Q: np.ndarray,
+                    PSID: np.ndarray, PSIDD: np.ndarray, T: np.ndarray, MDK: np.ndarray,
+                    NF: np.ndarray, COLS: np.ndarray, out: tuple, work: tuple) -> None:
+    """:func:`linearize_kernel` at every row of Q (steps, nq; internal units, assembled
+    postures) with the rates PSID, accelerations PSIDD (steps, nq) and times T
+    (steps,), the SGCs S.sgc throughout: M, D, K into MDK (steps, 3, nq, nq), the
+    coordinate count (or -1 where a closure failed) into NF and the coordinates
+    into COLS (steps, nq).  ``opts[3]`` (motion terms) applies where a step moves."""
+    z = dyn_data_views(ZP)
+    M, D, K = out[0], out[1], out[2]
+    moving = opts[3]
+    for k in range(Q.shape[0]):
+        for c in range(Q.shape[1]):
+            S.q[c] = Q[k, c]
+        S.t[0] = T[k]
+        still = True
+        for c in range(Q.shape[1]):
+            if PSID[k, c] != 0.0 or PSIDD[k, c] != 0.0:
+                still = False
+        opts[3] = 0.0 if still else moving
+        nf, _, status = linearize_kernel(KP, DP, YP, ZP, S, gen, opts, PSID[k], PSIDD[k],
+                                         out, work)
+        opts[3] = moving
+        NF[k] = nf if status == 0 else -1
+        for i in range(nf):
+            COLS[k, i] = z.cols[i]
+            for j in range(nf):
+                MDK[k, 0, i, j] = M[i, j]
+                MDK[k, 1, i, j] = D[i, j]
+                MDK[k, 2, i, j] = K[i, j]

@@ -6,6 +6,8 @@
 * :func:`modes`: eigenvalues of the first-order FGC system with every SGC
   locked (13.9, 14.11), natural frequencies, damping ratios, time
   constants, mode shapes;
+* :func:`modes_along`: the frequencies at every posture of a motion in one
+  compiled pass (a frequency-versus-posture map);
 * :func:`mode_motion`: one period of a mode as closed postures, to animate;
 * :func:`transfer_function`, :func:`frequency_response`,
   :func:`state_space`: from a force element, a load on a joint variable or
@@ -29,13 +31,14 @@ from typing import Any
 import numpy as np
 
 from openimp.dynamics.laws import law_values
-from openimp.dynamics.linear import H_MOTION, linearize_kernel
+from openimp.dynamics.linear import H_MOTION, linearize_kernel, linearize_steps
 from openimp.errors import AnalysisError, InputError
 from openimp.kinematics import sweep
 from openimp.kinematics.track import tracker
 from openimp.results import (
     FrequencyResponse,
     Linearization,
+    ModeMap,
     Modes,
     StateSpace,
     Trajectory,
@@ -86,13 +89,7 @@ def linearize(system: System, q: Any = None, rates: Any = None, accels: Any = No
         dyn.v.law[:] = _laws(system, S.q[None, :], (S.qd * 0)[None, :], t)[0]
     moving = motion_terms and bool(np.any(psid) or np.any(psidd))
     opts = np.array([pivot_tol, CLOSE_TOL, H_MOTION, float(moving), float(nlaw > 0)])
-    nb = len(system.bodies)
-    out = (np.zeros((nq, nq)), np.zeros((nq, nq)), np.zeros((nq, nq)), np.zeros(nq),
-           np.zeros((nq, nq, nq)), np.zeros((nb, nq, nq, 6)), np.zeros((nq, nlaw)),
-           np.zeros((nq, 4, nq)), np.zeros((nq, 4, nq)))
-    work = (np.zeros(nq), np.zeros(nq), np.zeros(nq), np.zeros(nq), np.zeros(nq),
-            np.zeros(nq), np.zeros(nq), np.zeros(nq), np.zeros((nb, 6)), np.zeros(nq),
-            np.zeros(nq), np.zeros(nq, np.bool_), np.zeros((nq, nq)))
+    out, work = _buffers(system)
     if nlaw:
         # the laws at the set point's joint rates (phi' psi'), which the kernel sets
         _kernel(system, data, dyn, S, opts, psid, psidd, out, work)
@@ -208,18 +205,14 @@ def _body_screws(system: System, dyn: Any, nf: int, cols: np.ndarray) -> np.ndar
 def _point_derivatives(system: System, data: Any, dyn: Any, nf: int, cols: np.ndarray
                        ) -> dict[str, np.ndarray]:
     """dR/dpsi (3, nf) of every point, model units: R'_j = v_bj + w_bj x R (7.25)."""
-    T0 = data.v.T0
-    W = dyn.v.W[:, :nf]
-    Ls, vs = system.length_scale, system.var_scale[cols]
-    out = {}
-    ptbody = system.K.ptbody
-    ptlocal = system.K.ptlocal
-    for p, name in enumerate(system.points):
-        b = int(ptbody[p])
-        R = (T0[b] @ ptlocal[p])[:3]
-        v, w = W[b, :, :3], W[b, :, 3:]
-        out[name] = (v + np.cross(w, R)).T * Ls / vs[None, :]
-    return out
+    if not system.points:
+        return {}
+    body = system.K.ptbody
+    R = np.einsum("pij,pj->pi", data.v.T0[body, :3], system.K.ptlocal)  # (np, 3)
+    W = dyn.v.W[body, :nf]  # (np, nf, 6)
+    Rp = W[:, :, :3] + np.cross(W[:, :, 3:], R[:, None, :])
+    Rp *= (system.length_scale / system.var_scale[cols])[None, :, None]
+    return dict(zip(system.points, Rp.transpose(0, 2, 1), strict=True))
 
 
 def _element_directions(system: System, data: Any, dyn: Any, nf: int, cols: np.ndarray
@@ -261,16 +254,28 @@ def _element_directions(system: System, data: Any, dyn: Any, nf: int, cols: np.n
 def _free_blocks(lin: Linearization) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """M_FF, D_FF, K_FF, with M_FF checked (13.3 note: a singular M_FF is a modeling
     error naming the bodies that move without mass)."""
-    MFF, DFF, KFF = lin.block("M", "FF"), lin.block("D", "FF"), lin.block("K", "FF")
+    if not lin.specified.any():
+        MFF, DFF, KFF = lin.M, lin.D, lin.K
+    else:
+        F = lin.free
+        MFF, DFF, KFF = (X[F][:, F] for X in (lin.M, lin.D, lin.K))
     _check_mass(lin, MFF)
     return MFF, DFF, KFF
 
 
 def _check_mass(lin: Linearization, MFF: np.ndarray) -> None:
+    """A Cholesky factor's smallest pivot bounds M_FF's smallest eigenvalue from above:
+    only a small one is looked at closer (eigh) and reported."""
     if MFF.size == 0:
         return
-    lam, vec = np.linalg.eigh(0.5 * (MFF + MFF.T))
     top = max(float(np.max(np.abs(np.diag(MFF)))), 1e-300)
+    try:
+        L = np.linalg.cholesky(MFF)
+        if float(np.min(np.diag(L))) ** 2 > SINGULAR_M * top:
+            return
+    except np.linalg.LinAlgError:
+        pass
+    lam, vec = np.linalg.eigh(0.5 * (MFF + MFF.T))
     bad = np.flatnonzero(lam <= SINGULAR_M * top)
     if bad.size == 0:
         return
@@ -284,6 +289,15 @@ def _check_mass(lin: Linearization, MFF: np.ndarray) -> None:
         + (("bodies " + ", ".join(bodies)) if bodies else "no body") + " without "
         "kinetic energy (no mass or inertia there); give those bodies mass and inertia "
         "(Model.add_mass, DATA MASS / DATA INERTIA) or specify the coordinate")
+
+
+def _first_order(MFF: np.ndarray, DFF: np.ndarray, KFF: np.ndarray) -> np.ndarray:
+    """S = [[-M^-1 D, -M^-1 K], [I, 0]] (14.11), state (v_F, x_F)."""
+    nf = MFF.shape[0]
+    Sm = np.zeros((2 * nf, 2 * nf))
+    Sm[:nf] = -np.linalg.solve(MFF, np.hstack([DFF, KFF]))
+    Sm[nf:, :nf] = np.eye(nf)
+    return Sm
 
 
 def _moving_bodies(lin: Linearization, vF: np.ndarray) -> list[str]:
@@ -312,50 +326,206 @@ def modes(lin: Linearization | System, **kwargs: Any) -> Modes:
     if nf == 0:
         raise AnalysisError("modes: there are no free generalized coordinates (every "
                             "coordinate is specified), so nothing can vibrate")
-    MFF, DFF, KFF = _free_blocks(lin)
-    Minv = np.linalg.inv(MFF)
-    Sm = np.block([[-Minv @ DFF, -Minv @ KFF], [np.eye(nf), np.zeros((nf, nf))]])
+    Sm = _first_order(*_free_blocks(lin))
     lam, eta = np.linalg.eig(Sm)
-    order = np.lexsort((np.round(lam.imag, 12), np.round(np.abs(lam), 12)))
-    lam, eta = lam[order], eta[:, order]
     scale = max(float(np.max(np.abs(lam))), 1.0)
     tol = 1e-9 * scale
-    picks = []
-    for k in range(lam.size):
-        if abs(lam[k].imag) <= tol:
-            picks.append(k)
-        elif lam[k].imag > 0:
-            picks.append(k)
-    mlam = lam[picks]
-    shapes = eta[nf:, picks].copy()
-    for k in range(shapes.shape[1]):
-        x = shapes[:, k]
-        i = int(np.argmax(np.abs(x)))
-        if abs(x[i]) > 0:
-            shapes[:, k] = x / x[i]
-        if abs(mlam[k].imag) <= tol:
-            shapes[:, k] = shapes[:, k].real
-    freq = np.full(mlam.size, np.nan)
-    damp = np.full(mlam.size, np.nan)
-    damped = np.zeros(mlam.size)
-    tau = np.full(mlam.size, np.nan)
-    kinds = []
-    for k, z in enumerate(mlam):
-        if abs(z.imag) > tol:
-            freq[k] = abs(z)
-            damp[k] = -z.real / abs(z) + 0.0
-            damped[k] = z.imag
-            kinds.append("oscillatory")
-        elif abs(z.real) <= tol:
-            tau[k] = math.inf
-            kinds.append("neutral")
-        else:
-            tau[k] = -1.0 / z.real
-            kinds.append("overdamped")
+    # one entry per mode: a real eigenvalue, or the upper member of a pair; slowest first
+    keep = np.flatnonzero((np.abs(lam.imag) <= tol) | (lam.imag > 0))
+    keep = keep[np.argsort(np.abs(lam[keep]), kind="stable")]
+    mlam = lam[keep]
+    real = np.abs(mlam.imag) <= tol
+    shapes = eta[nf:, keep]
+    big = shapes[np.argmax(np.abs(shapes), axis=0), np.arange(keep.size)]
+    shapes = shapes / np.where(big == 0, 1.0, big)
+    shapes[:, real] = shapes[:, real].real
+    mag = np.abs(mlam)
+    osc = ~real
+    freq = np.where(osc, mag, np.nan)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        damp = np.where(osc, -mlam.real / np.where(osc, mag, 1.0) + 0.0, np.nan)
+        neutral = real & (np.abs(mlam.real) <= tol)
+        tau = np.where(real, np.where(neutral, np.inf, -1.0 / np.where(neutral, 1.0,
+                                                                         mlam.real)), np.nan)
+    damped = np.where(osc, mlam.imag, 0.0)
+    kinds = ["oscillatory" if o else "neutral" if n else "overdamped"
+             for o, n in zip(osc, neutral, strict=True)]
     unstable = mlam.real > tol
     joint = lin.phi[:, lin.free] @ shapes
-    return Modes(lin, [lin.coords[i] for i in lin.free], lam, mlam, freq, damp, damped, tau,
-                 kinds, unstable, shapes, joint, Sm)
+    return Modes(lin, [lin.coords[i] for i in lin.free], lam[np.argsort(np.abs(lam),
+                 kind="stable")], mlam, freq, damp, damped, tau, kinds, unstable, shapes,
+                 joint, Sm)
+
+
+def modes_along(system: System, q: Any, rates: Any = None, accels: Any = None, *,
+                specified: Any = (), t: Any = 0.0, pivot_tol: float = 1e-10) -> ModeMap:
+    """Natural frequencies and damping ratios at every posture of ``q`` (13.9).
+
+    ``q``: (steps, nq) assembled postures (model units) or a :class:`Trajectory`
+    (its postures, its specified coordinates unless ``specified`` is given, its
+    rates and times); ``rates``, ``accels``: mappings coordinate -> value or
+    array (steps,); ``t``: time or times.  The same result as :func:`modes` of
+    :func:`linearize` at every step, linearized in one compiled pass and the
+    eigenvalues found together (load laws, being Python, take the step-by-step
+    route).
+    """
+    if not isinstance(system, System):
+        raise InputError(f"modes_along takes a compiled System, got {type(system).__name__}")
+    nq = system.nq
+    if isinstance(q, Trajectory):
+        tr = q
+        qm = tr.q
+        if not specified:
+            specified = list(tr.sgc)
+        if rates is None and tr.has_rates:
+            rates = {n: tr.qd[:, system.var_index(n)] for n in specified}
+            accels = {n: tr.qdd[:, system.var_index(n)] for n in specified}
+        if tr.time is not None and np.isscalar(t) and t == 0.0:
+            t = tr.time
+    else:
+        qm = np.asarray(q, float)
+    if qm.ndim != 2 or qm.shape[1] != nq or not np.all(np.isfinite(qm)):
+        raise InputError(f"modes_along: q must be (steps, {nq}) finite joint variables, got "
+                         f"shape {np.shape(qm)}")
+    n = qm.shape[0]
+    T = np.broadcast_to(np.asarray(t, float), (n,)).copy()
+    psid = _per_step(system, rates, n, "rates")
+    psidd = _per_step(system, accels, n, "accels")
+    sgc = np.zeros(nq, bool)
+    for key in specified:
+        sgc[system.var_index(key)] = True
+    if system.laws:
+        lins = []
+        for k in range(n):
+            r = {system.var_names[c]: psid[k, c] * system.var_scale[c] for c in range(nq)
+                 if psid[k, c]}
+            a = {system.var_names[c]: psidd[k, c] * system.var_scale[c] for c in range(nq)
+                 if psidd[k, c]}
+            lins.append(linearize(system, qm[k], r, a, specified=specified, t=float(T[k]),
+                                  pivot_tol=pivot_tol))
+        return _mode_map(system, qm, [([k], np.stack([lin.M, lin.D, lin.K])[None],
+                                       lin.coords, lin.specified)
+                                      for k, lin in enumerate(lins)])
+    S = make_state(system, system.to_internal(qm[0]), float(T[0]))
+    S.sgc[:] = sgc
+    data = make_data(system, nq)
+    dyn = make_dyn_data(system, nq)
+    out, work = _buffers(system)
+    opts = np.array([pivot_tol, CLOSE_TOL, H_MOTION, 1.0, 0.0])
+    MDK = np.zeros((n, 3, nq, nq))
+    NF = np.zeros(n, np.int64)
+    COLS = np.zeros((n, nq), np.int64)
+    linearize_steps(system.KP, data.DP, system.YP, dyn.ZP, S, system.gen, opts,
+                    system.to_internal(qm), psid, psidd, T, MDK, NF, COLS, out, work)
+    vs = system.var_scale
+    Ls = system.length_scale
+    groups: dict[tuple[int, ...], list[int]] = {}
+    for k in range(n):
+        key = tuple(COLS[k, :NF[k]]) if NF[k] >= 0 else (-1,)
+        groups.setdefault(key, []).append(k)
+    blocks = []
+    for key, idx in groups.items():
+        if key == (-1,):
+            blocks.append((idx, None, [], np.zeros(0, bool)))
+            continue
+        cols = np.array(key, np.int64)
+        nf = cols.size
+        sc = np.outer(np.where(vs[cols] == 1.0, Ls * Ls, Ls), 1.0 / vs[cols])
+        blocks.append((idx, MDK[idx, :, :nf, :nf] * sc, [system.var_names[c] for c in cols],
+                       sgc[cols]))
+    return _mode_map(system, qm, blocks)
+
+
+def _per_step(system: System, values: Any, n: int, what: str) -> np.ndarray:
+    """A mapping coordinate -> value or (steps,) values, model units, as (steps, nq)
+    internal values."""
+    out = np.zeros((n, system.nq))
+    if values is None:
+        return out
+    if not hasattr(values, "items"):
+        raise InputError(f"{what} must map coordinate names to numbers or arrays")
+    for key, v in values.items():
+        c = system.var_index(key)
+        arr = np.asarray(v, float)
+        if arr.ndim > 1 or (arr.ndim == 1 and arr.size != n) or not np.all(np.isfinite(arr)):
+            raise InputError(f"{what}[{key!r}] must be a finite number or {n} of them")
+        out[:, c] = arr / system.var_scale[c]
+    return out
+
+
+def _buffers(system: System) -> tuple[tuple, tuple]:
+    """The out and work tuples of :func:`~openimp.dynamics.linear.linearize_kernel`."""
+    nq, nb, nlaw = system.nq, len(system.bodies), len(system.laws)
+    out = (np.zeros((nq, nq)), np.zeros((nq, nq)), np.zeros((nq, nq)), np.zeros(nq),
+           np.zeros((nq, nq, nq)), np.zeros((nb, nq, nq, 6)), np.zeros((nq, nlaw)),
+           np.zeros((nq, 4, nq)), np.zeros((nq, 4, nq)))
+    work = (np.zeros(nq), np.zeros(nq), np.zeros(nq), np.zeros(nq), np.zeros(nq),
+            np.zeros(nq), np.zeros(nq), np.zeros(nq), np.zeros((nb, 6)), np.zeros(nq),
+            np.zeros(nq), np.zeros(nq, np.bool_), np.zeros((nq, nq)))
+    return out, work
+
+
+def _mode_map(system: System, qm: np.ndarray, blocks: list) -> ModeMap:
+    """Eigenvalues of every step's FGC system, solved together for the steps of one set of
+    coordinates; frequencies sorted per step.  ``blocks``: (steps, MDK (steps, 3, f,
+    f) model units or None where no closure, coordinate names, specified mask)."""
+    n = qm.shape[0]
+    sizes = [-1] * n
+    for idx, _, _, spec in blocks:
+        for k in idx:
+            sizes[k] = -1 if _ is None else int((~spec).sum())
+    width = max([s for s in sizes if s > 0], default=0)
+    lam = np.full((n, 2 * width), np.nan + 0j)
+    coords: list[list[str]] = [[] for _ in range(n)]
+    messages = []
+    for idx, X, names, spec in blocks:
+        F = np.flatnonzero(~spec)
+        nf = F.size
+        if X is None or nf == 0:
+            continue
+        XF = X[:, :, F][:, :, :, F]  # (steps, 3, nf, nf)
+        Sm = np.zeros((len(idx), 2 * nf, 2 * nf))
+        ok = np.ones(len(idx), bool)
+        try:
+            Sm[:, :nf] = -np.linalg.solve(XF[:, 0], np.concatenate([XF[:, 1], XF[:, 2]], 2))
+        except np.linalg.LinAlgError:
+            for r in range(len(idx)):
+                try:
+                    Sm[r, :nf] = -np.linalg.solve(XF[r, 0], np.hstack([XF[r, 1], XF[r, 2]]))
+                except np.linalg.LinAlgError:
+                    ok[r] = False
+                    messages.append(f"step {idx[r]}: the mass matrix of the free coordinates "
+                                    "is singular (a massless part can move alone)")
+        Sm[:, nf:, :nf] = np.eye(nf)
+        rows = [idx[r] for r in range(len(idx)) if ok[r]]
+        for k in rows:
+            coords[k] = [names[i] for i in F]
+        if not rows:
+            continue
+        ev = np.linalg.eigvals(Sm[ok])
+        order = np.argsort(np.abs(ev), axis=1, kind="stable")
+        lam[rows, :2 * nf] = np.take_along_axis(ev, order, axis=1)
+    for k, sz in enumerate(sizes):
+        if sz < 0:
+            messages.append(f"step {k}: the loops do not close near this posture (singular)")
+        elif sz == 0:
+            messages.append(f"step {k}: no free generalized coordinates")
+    scale = np.maximum(np.nanmax(np.abs(lam), axis=1, initial=1.0), 1.0)[:, None]
+    tol = 1e-9 * scale
+    osc = lam.imag > tol
+    freq = np.where(osc, np.abs(lam), np.nan)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        damp = np.where(osc, -lam.real / np.abs(lam), np.nan)
+        real = np.abs(lam.imag) <= tol
+        tau = np.where(real & (np.abs(lam.real) > tol), -1.0 / lam.real,
+                       np.where(real, np.inf, np.nan))
+    # oscillatory modes first in order of frequency, NaN padding last
+    fo = np.argsort(np.where(np.isnan(freq), np.inf, freq), axis=1, kind="stable")[:, :width]
+    frequency = np.take_along_axis(freq, fo, axis=1)
+    damping = np.take_along_axis(damp, fo, axis=1)
+    unstable = np.any(lam.real > tol, axis=1)
+    return ModeMap(system, qm.copy(), coords, lam, frequency, damping, tau, unstable,
+                   messages)
 
 
 # ----------------------------------------------------------------------------- transfer
@@ -423,7 +593,7 @@ def _realization(lin: Linearization, b: np.ndarray, p: int, c: np.ndarray
     F = lin.free
     nf = F.size
     Minv = np.linalg.inv(MFF)
-    A = np.block([[-Minv @ DFF, -Minv @ KFF], [np.eye(nf), np.zeros((nf, nf))]])
+    A = _first_order(MFF, DFF, KFF)
     cF = c[F]
     C = np.concatenate([np.zeros(nf), cF])[None, :]
     if p < 0:
@@ -537,7 +707,7 @@ def state_space(lin: Linearization, inputs: Any, outputs: Any) -> StateSpace:
             rows_C.append(C[0])
             rows_D.append(D[0])
     else:
-        A = np.block([[-Minv @ DFF, -Minv @ KFF], [np.eye(nf), np.zeros((nf, nf))]])
+        A = _first_order(MFF, DFF, KFF)
         B = np.column_stack([np.concatenate([Minv @ b[F], np.zeros(nf)])
                              for _, b, _ in ins])
         bF = np.column_stack([b[F] for _, b, _ in ins])
