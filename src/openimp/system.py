@@ -397,6 +397,10 @@ class DynData:
         """The fields as named numpy views of ``ZP``."""
         return KDynData(*views(DYN_DATA_FIELDS, self.ZP))
 
+    def view(self, name: str) -> np.ndarray:
+        """One field as a numpy view of ``ZP`` (cheaper than :attr:`v` for one or two)."""
+        return view(DYN_DATA_FIELDS, self.ZP, name)
+
 
 def make_dyn_data(system: System, nf: int) -> DynData:
     """The dynamic scratch of ``system`` for ``nf`` generalized coordinates."""

@@ -86,23 +86,23 @@ def linearize(system: System, q: Any = None, rates: Any = None, accels: Any = No
     dyn = make_dyn_data(system, nq)
     nlaw = len(system.laws)
     if nlaw:
-        dyn.v.law[:] = _laws(system, S.q[None, :], (S.qd * 0)[None, :], t)[0]
+        dyn.view("law")[:] = _laws(system, S.q[None, :], (S.qd * 0)[None, :], t)[0]
     moving = motion_terms and bool(np.any(psid) or np.any(psidd))
     opts = np.array([pivot_tol, CLOSE_TOL, H_MOTION, float(moving), float(nlaw > 0)])
     out, work = _buffers(system)
     if nlaw:
         # the laws at the set point's joint rates (phi' psi'), which the kernel sets
         _kernel(system, data, dyn, S, opts, psid, psidd, out, work)
-        dyn.v.law[:] = _laws(system, S.q[None, :], S.qd[None, :], t)[0]
+        dyn.view("law")[:] = _laws(system, S.q[None, :], S.qd[None, :], t)[0]
     nf, rank, status = _kernel(system, data, dyn, S, opts, psid, psidd, out, work)
     if status:
-        name = system.var_names[int(dyn.v.cols[status - 1])]
+        name = system.var_names[int(dyn.view("cols")[status - 1])]
         raise AnalysisError(f"linearize: the loops do not close when {name} moves by "
                             f"{H_MOTION:g} from the set point: the posture is at or near a "
                             "singular position; move the set point away from it")
     M, D, K, F, _, _, Gl, qpl, qdpl = out
-    cols = dyn.v.cols[:nf].copy()
-    G = dyn.v.Gf[:, :nf].copy()
+    cols = dyn.view("cols")[:nf].copy()
+    G = dyn.view("Gf")[:, :nf].copy()
     M, D, K, F = M[:nf, :nf].copy(), D[:nf, :nf].copy(), K[:nf, :nf].copy(), F[:nf].copy()
     messages: list[str] = []
     if nlaw:
@@ -196,7 +196,7 @@ def _law_derivatives(system: System, S: Any, G: np.ndarray, cols: np.ndarray,
 
 def _body_screws(system: System, dyn: Any, nf: int, cols: np.ndarray) -> np.ndarray:
     """W_{b,j} (nb, nf, 6) per model unit of coordinate j: v in lengths, w in radians."""
-    W = dyn.v.W[:, :nf].copy()
+    W = dyn.view("W")[:, :nf].copy()
     vs = system.var_scale[cols]
     W[:, :, :3] *= system.length_scale
     return W / vs[None, :, None]
@@ -208,8 +208,8 @@ def _point_derivatives(system: System, data: Any, dyn: Any, nf: int, cols: np.nd
     if not system.points:
         return {}
     body = system.K.ptbody
-    R = np.einsum("pij,pj->pi", data.v.T0[body, :3], system.K.ptlocal)  # (np, 3)
-    W = dyn.v.W[body, :nf]  # (np, nf, 6)
+    R = np.einsum("pij,pj->pi", data.view("T0")[body, :3], system.K.ptlocal)  # (np, 3)
+    W = dyn.view("W")[body, :nf]  # (np, nf, 6)
     Rp = W[:, :, :3] + np.cross(W[:, :, 3:], R[:, None, :])
     Rp *= (system.length_scale / system.var_scale[cols])[None, :, None]
     return dict(zip(system.points, Rp.transpose(0, 2, 1), strict=True))
@@ -219,8 +219,8 @@ def _element_directions(system: System, data: Any, dyn: Any, nf: int, cols: np.n
                         ) -> dict[str, np.ndarray]:
     """The generalized force (f,) of a unit force or torque element (9.32, 9.34), model
     units: u . R'_j at the point of a force, u . w_bj for a torque."""
-    T0 = data.v.T0
-    W = dyn.v.W[:, :nf]
+    T0 = data.view("T0")
+    W = dyn.view("W")[:, :nf]
     Ls, vs = system.length_scale, system.var_scale[cols]
     Y = system.Y
     out = {}
