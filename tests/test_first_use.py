@@ -163,8 +163,9 @@ END
     ran = [ln for ln in run.stderr.splitlines() if not ln.startswith("openimp: note")]
     assert missing == ran and len(missing) == 3  # LIST FORCE (A) is produced
     assert missing[0] == (f"openimp: run 1 (FOUR-BAR FOR TESTS): {p}:{n + 4}: PRINT FREQUENCY "
-                          "is not produced: linearized vibration analysis is not built yet in "
-                          "openimp (the other requests are)")
+                          "is not produced: the run has no free generalized coordinate "
+                          "(mobility 1 at the starting posture, 1 input motion(s)): every "
+                          "coordinate is specified, so nothing can vibrate")
     assert f"{p}:{n + 5}: LIST DYNAMICS is not produced" in missing[1]
     assert f"run 2 (FOUR-BAR FOR TESTS): {p}:{n + 9}: EXECUTE in static mode" in missing[2]
     # a request after the last EXECUTE is produced by no run: both say so
