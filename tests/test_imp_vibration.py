@@ -340,3 +340,29 @@ def test_fourbar_flex_frequency_at_every_crank_position() -> None:
     t = r.table("LIST DYNAMICS", "load on joint E 1")
     # the knee's static compliance: 1 / (20 in lbf per degree), in degrees per in lbf
     assert t.rows[0, 3] == pytest.approx(1 / 20.0, rel=2e-3)
+
+
+@pytest.mark.parametrize("case", ["inverted", "free"])
+def test_real_modes_print_time_constants(tmp_path, case) -> None:
+    """Upside down the pendulum has two real modes, one growing (a negative time
+    constant); without gravity one mode is neutral (lambda = 0): the roots of
+    I s^2 + c s + k with k = -m g l or 0."""
+    gravity = "0, 386.088, 0" if case == "inverted" else "0, 0, 0"
+    text = PENDULUM.replace("0, -386.088, 0", gravity) + "PRINT FREQUENCY\nEXECUTE\nEND\n"
+    runs, echo = run(write(tmp_path, text))
+    t = runs[0].table("PRINT FREQUENCY", "modes")
+    k = -MGL if case == "inverted" else 0.0
+    lam = np.roots([I_PIV, C_PIN, k]).real
+    i = echo.index("Vibration Results:")
+    if case == "inverted":
+        tau = np.sort(-1.0 / lam)
+        assert np.allclose(np.sort(t.rows[:, 2]), tau, rtol=1e-8)
+        assert np.all(np.isnan(t.rows[:, :2]))
+        grow = f"Time constant = {tau[0]:.6g} s (over-damped) (unstable)"
+        assert any(ln.endswith(grow) for ln in echo[i + 2:i + 4]), echo[i:i + 4]
+    else:
+        neutral = t.rows[np.isnan(t.rows[:, 2])]
+        assert neutral.shape[0] == 1 and neutral[0, 0] == 0.0
+        assert np.nanmax(t.rows[:, 2]) == pytest.approx(I_PIV / C_PIN, rel=1e-8)
+        assert any(ln.endswith("Neutral: zero frequency, no restoring load")
+                   for ln in echo[i + 2:i + 4])

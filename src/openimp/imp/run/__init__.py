@@ -8,6 +8,9 @@
   the run ended);
 * :mod:`~openimp.imp.run.forces`: the force analysis of a solved kinematic run
   in IMP's kinematic-mode convention (FORCE requests, FORCE(...) in VALUEs);
+* :mod:`~openimp.imp.run.vibration`: linearized vibration of a solved
+  kinematic run (PRINT FREQUENCY at every position; PRINT, LIST, STORE and
+  PLOT DYNAMICS at the last one);
 * :mod:`~openimp.imp.run.quantities`: tables and PRINT text from a solution;
 * :mod:`~openimp.imp.run.output`: the deck's events in order, each EXECUTE
   through the runner of its mode (:data:`~openimp.imp.run.output.SOLVERS`),
