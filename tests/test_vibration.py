@@ -405,11 +405,6 @@ def test_rssr_mass_against_kinetic_energy():
     assert rel(lin.M, M) < 1e-12
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "equations() scales an Euler-Rodrigues coordinate as a length (eom.equations: gs = L^2 "
-    "only for var_kinds == 'angle', L otherwise): its rows and columns of M, c, Q are off by "
-    "the length scale (4.6167 here; M[1,1] 0.0492 vs 1.0496 = 1/2 d2T/du2); linearize "
-    "scales it as dimensionless (var_scale 1) and agrees with the kinetic energy"))
 def test_rssr_mass_damping_force():
     """The RSSR with two balls: coordinates the crank and the coupler's passive spin (an
     Euler-Rodrigues parameter).  M, D and F need no closed postures (D by central

@@ -817,7 +817,7 @@ def _dynamic_group(
         if e.law is not None:
             elaw[i] = len(laws)
             laws.append((e.kind, e.name, e.law, -1))
-    gscale = np.array([Ls * Ls if k == "angle" else Ls for k in var_kinds])
+    gscale = np.array([Ls if k == "length" else Ls * Ls for k in var_kinds])
     escale = np.where(ekind == TORQUE, Ls * Ls, Ls)
     dyn = dict(Jb=Jb, grav=grav, qk=qk, qfree=qfree, qc=qc, qf=qf, qlaw=qlaw, ekind=ekind,
                ept=ept, ebody=ebody, evalue=evalue, efree=efree, edir=edir, elaw=elaw,

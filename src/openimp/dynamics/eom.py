@@ -200,7 +200,7 @@ def equations(system: System, q: Any = None, rates: Any = None, *,
     cols = dyn.v.cols[:nf].copy()
     # model units: generalized forces of angles times L^2, of lengths times L
     Ls = system.length_scale
-    gs = np.where(np.array([system.var_kinds[c] for c in cols]) == "angle", Ls * Ls, Ls)
+    gs = np.where(np.array([system.var_kinds[c] for c in cols]) == "length", Ls, Ls * Ls)
     e2 = Ls * Ls
     # M_ij psi''_j is a force of i: scale by gs_i gs_j / L^2 (rates of lengths are / L)
     Mm = M[:nf, :nf] * np.outer(gs, gs) / e2

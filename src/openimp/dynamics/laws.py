@@ -70,7 +70,7 @@ def _scale(system: Any, what: str, col: int) -> float:
         return 1.0 / Ls
     if what == "torque":
         return 1.0 / Ls**2
-    return 1.0 / Ls**2 if system.var_kinds[col] == "angle" else 1.0 / Ls
+    return 1.0 / Ls if system.var_kinds[col] == "length" else 1.0 / Ls**2
 
 
 def law_values(system: Any, trajectory: Any, times: np.ndarray) -> np.ndarray:
