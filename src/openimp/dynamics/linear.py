@@ -378,7 +378,7 @@ def linearize_kernel(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
         for i in range(nf):
             D[i, k] = (r[i] - (cp[i] - Qp[i])) / (2.0 * step)
     # K (11.9) of the loads at rest, closed form
-    second_derivatives(KP, DP, ZP, S, gen, rank, nf, P2, A2, cp)
+    second_derivatives(KP, DP, ZP, S, gen, rank, nf, P2, A2, cp[:nf])
     _rate_forces(KP, DP, YP, ZP, S, gen, rank, nf, zero[:nf], cp, Qp)  # Fext, fq at rest
     G = z.Gf
     W = z.W
