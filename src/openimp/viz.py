@@ -9,6 +9,7 @@ distance (``DATA DRAW``).  From it:
 * :func:`animate_gif` draws every step to an animated GIF (ANIMATE);
 * :func:`animate_html` writes one self-contained HTML page (no network) with
   the projected polylines of every step, a play/pause button and a time slider;
+* :func:`bode_png` draws a frequency-response table as a Bode plot;
 * :func:`plot_png` plots the columns of a result :class:`~openimp.results.Table`
   against one of its columns, the first (time or step) by default (PLOT).
 
@@ -62,6 +63,7 @@ __all__ = [
     "Scene",
     "animate_gif",
     "animate_html",
+    "bode_png",
     "color_hex",
     "draw_png",
     "plot_png",
@@ -808,6 +810,38 @@ def plot_png(table: Table, path: PathLike, columns: Sequence[str | int] | None =
     of the table.
     """
     fig = _plot_figure(table, columns, x)
+    return _atomic(path, lambda tmp: fig.savefig(tmp, format="png", dpi=_PNG_DPI))
+
+
+def bode_png(table: Table, path: PathLike) -> Path:
+    """A Bode plot of a frequency-response table (IMP's PLOT DYNAMICS) to a PNG.
+
+    ``table``: the frequency (rad/s) first, then magnitude and phase (degrees)
+    of every output in pairs (:meth:`openimp.FrequencyResponse.to_table`'s
+    order; ``units`` label the magnitudes).  Magnitudes on log-log axes above,
+    phases on semi-log axes below, one line per output; written atomically.
+    """
+    rows = np.asarray(table.rows, dtype=float)
+    if rows.ndim != 2 or rows.shape[1] < 3 or rows.shape[1] % 2 != 1:
+        raise InputError(f"table {table.request} {table.item}: a Bode plot needs the "
+                         "frequency and (magnitude, phase) pairs")
+    w = rows[:, 0]
+    fig = Figure(figsize=_FIG_SIZE, dpi=_PNG_DPI, facecolor="white")
+    FigureCanvasAgg(fig)
+    top, bottom = fig.add_subplot(2, 1, 1), fig.add_subplot(2, 1, 2)
+    for j in range(1, rows.shape[1], 2):
+        label = table.columns[j].strip("|")
+        mag = np.where(rows[:, j] > 0, rows[:, j], np.nan)
+        top.loglog(w, mag, lw=1.6, label=f"{label} ({table.units[j]})")
+        bottom.semilogx(w, rows[:, j + 1], lw=1.6, label=label)
+    top.set_ylabel("Magnitude")
+    bottom.set_ylabel("Phase (deg)")
+    bottom.set_xlabel("Frequency (rad/s)")
+    for ax in (top, bottom):
+        ax.grid(True, which="both", alpha=0.3)
+    top.legend(fontsize=8)
+    top.set_title(f"{table.request} {table.item}".encode("ascii", "replace").decode())
+    fig.tight_layout()
     return _atomic(path, lambda tmp: fig.savefig(tmp, format="png", dpi=_PNG_DPI))
 
 

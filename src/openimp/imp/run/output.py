@@ -309,7 +309,7 @@ def _graphics(prep: Prepared, sol: Solution, run: Run, ctx: Context) -> None:
             name = f"run{k}_plot_{slug(t.request.split()[-1])}_{slug(t.item)}.png"
             x = 1 if plot_driver(prep) is not None else 0
             if t.request == "PLOT DYNAMICS":  # a Bode plot against the frequency
-                ctx.picture(name, where, lambda p, t=t: vibration.bode_png(t, p))
+                ctx.picture(name, where, lambda p, t=t: viz.bode_png(t, p))
             else:
                 ctx.picture(name, where, lambda p, t=t, x=x: viz.plot_png(t, p, x=x))
     except Exception as exc:

@@ -27,11 +27,9 @@ of that step only).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 
-from openimp import files
 from openimp.dynamics.vibration import (
     frequency_response,
     linearize,
@@ -45,7 +43,7 @@ from openimp.imp.run.quantities import _resolver
 from openimp.imp.run.solution import Solution
 from openimp.results import FrequencyResponse, Linearization, Modes, Table, TransferFunction
 
-__all__ = ["KINDS", "Vibration", "analyse", "bode_png"]
+__all__ = ["KINDS", "Vibration", "analyse"]
 
 #: the request items this module answers
 KINDS = ("modes", "dynamics")
@@ -317,32 +315,3 @@ def analyse(prep: Prepared, sol: Solution, items: list[Item], notes: list[str]) 
                     for m in lin.messages}
     _note_once(notes, [f"linearized equations: {m}" for m in sorted(approximated)])
     return out
-
-
-# ----------------------------------------------------------------------------- Bode plot
-def bode_png(table: Table, path: Any) -> Any:
-    """A Bode plot of a LIST / PLOT DYNAMICS table to a PNG, written atomically: the
-    magnitudes against the frequency on log-log axes, the phases (degrees) on
-    semi-log axes below, one line per output."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    rows = np.asarray(table.rows, dtype=float)
-    w = rows[:, 0]
-    fig = Figure(figsize=(8.0, 6.0), dpi=100, facecolor="white")
-    FigureCanvasAgg(fig)
-    top, bottom = fig.add_subplot(2, 1, 1), fig.add_subplot(2, 1, 2, sharex=None)
-    for j in range(1, len(table.columns), 2):
-        label = table.columns[j].strip("|")
-        mag = np.where(rows[:, j] > 0, rows[:, j], np.nan)
-        top.loglog(w, mag, lw=1.6, label=f"{label} ({table.units[j]})")
-        bottom.semilogx(w, rows[:, j + 1], lw=1.6, label=label)
-    top.set_ylabel("Magnitude")
-    bottom.set_ylabel("Phase (deg)")
-    bottom.set_xlabel("Frequency (rad/s)")
-    for ax in (top, bottom):
-        ax.grid(True, which="both", alpha=0.3)
-    top.legend(fontsize=8)
-    top.set_title(f"{table.request} {table.item}".encode("ascii", "replace").decode())
-    fig.tight_layout()
-    return files.atomic_write_with(path, lambda tmp: fig.savefig(tmp, format="png", dpi=100))
