@@ -734,3 +734,29 @@ def test_bad_frequencies():
     for w in ([-1.0, 2.0], [np.nan], [[1.0, 2.0]]):
         with pytest.raises(openimp.InputError, match="w must"):
             openimp.frequency_response(lin, ("force", "F"), ("position", "X"), w)
+
+
+def test_state_and_modes_along_agree_with_linearize():
+    """linearize of a State (internal units, its sgc, rates, accelerations and time) is
+    linearize with keywords; modes_along over postures and rates is modes of linearize at
+    each (the same numbers: 1e-12 relative, one code path compiled in a loop)."""
+    system = fivebar()
+    q = posture(system, {"A": 0.4, "E": -0.2})
+    lin = openimp.linearize(system, q, {"A": 1.5}, {"A": -0.7}, specified=["A"], t=0.25)
+    S = openimp.system.make_state(system, system.to_internal(q), 0.25)
+    a = system.var_index("A")
+    S.sgc[a] = True
+    S.qd[a], S.qdd[a] = 1.5, -0.7  # an angle: internal units are model units
+    lin2 = openimp.linearize(system, S)
+    assert lin2.coords == lin.coords
+    for name in ("M", "D", "K", "F"):
+        np.testing.assert_allclose(getattr(lin2, name), getattr(lin, name), rtol=1e-12,
+                                   atol=1e-12 * np.abs(getattr(lin, name)).max())
+    qs = np.array([posture(system, {"A": a0, "E": -0.2}) for a0 in (0.2, 0.4, 0.6)])
+    mm = openimp.modes_along(system, qs, {"A": 1.5}, specified=["A"])
+    for k in range(3):
+        md = openimp.modes(openimp.linearize(system, qs[k], {"A": 1.5}, specified=["A"]))
+        osc = np.sort(md.frequency[np.isfinite(md.frequency)])
+        np.testing.assert_allclose(mm.frequency[k, :osc.size], osc, rtol=1e-12)
+        np.testing.assert_allclose(np.sort_complex(mm.eigenvalues[k]),
+                                   np.sort_complex(md.eigenvalues), rtol=1e-12, atol=1e-12)

@@ -44,7 +44,7 @@ from openimp.results import (
     Trajectory,
     TransferFunction,
 )
-from openimp.system import FORCE, TORQUE, System, make_data, make_dyn_data, make_state
+from openimp.system import FORCE, TORQUE, State, System, make_data, make_dyn_data, make_state
 
 #: closure tolerance of the postures the motion terms are differenced over
 CLOSE_TOL = 1e-13
@@ -62,7 +62,10 @@ def linearize(system: System, q: Any = None, rates: Any = None, accels: Any = No
     """The linearized equations of motion of ``system`` about one set point (11.11).
 
     ``q``: joint variables (nq,), model units, an assembled posture (default
-    the modeling posture); ``specified``: the SGCs (joint names or
+    the modeling posture), or a :class:`~openimp.system.State` (internal
+    units: its posture, time, specified coordinates ``sgc`` and the rates and
+    accelerations of its joint variables, which for the generalized
+    coordinates are theirs); ``specified``: the SGCs (joint names or
     ``"joint.var"``), the other generalized coordinates are the FGCs the
     elimination leaves; ``rates``, ``accels``: mappings coordinate -> rate,
     acceleration at the set point (default at rest).  ``motion_terms``: add the
@@ -72,6 +75,12 @@ def linearize(system: System, q: Any = None, rates: Any = None, accels: Any = No
     if not isinstance(system, System):
         raise InputError(f"linearize takes a compiled System, got {type(system).__name__}")
     nq = system.nq
+    if isinstance(q, State):
+        vs = system.var_scale
+        st, q, t = q, system.to_model(q.q), q.time
+        specified = list(specified) + [system.var_names[c] for c in np.flatnonzero(st.sgc)]
+        rates = {system.var_names[c]: st.qd[c] * vs[c] for c in range(nq) if st.qd[c]}
+        accels = {system.var_names[c]: st.qdd[c] * vs[c] for c in range(nq) if st.qdd[c]}
     qm = system.modeling_q if q is None else np.asarray(q, float)
     if qm.shape != (nq,) or not np.all(np.isfinite(qm)):
         raise InputError(f"q must hold the {nq} joint variables as finite numbers, got "
