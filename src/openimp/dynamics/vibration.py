@@ -25,7 +25,9 @@ on a joint variable, positive tending to increase it) or
 
 from __future__ import annotations
 
+import cmath
 import math
+import weakref
 from typing import Any
 
 import numpy as np
@@ -91,14 +93,13 @@ def linearize(system: System, q: Any = None, rates: Any = None, accels: Any = No
     vs = system.var_scale
     psid = _per_coordinate(system, rates, "rates")
     psidd = _per_coordinate(system, accels, "accels")
-    data = make_data(system, nq)
-    dyn = make_dyn_data(system, nq)
+    data, dyn, out, work = _scratch(system)
+    out[8][:] = 0.0  # the joint rates at the closed postures: written only when moving
     nlaw = len(system.laws)
     if nlaw:
         dyn.view("law")[:] = _laws(system, S.q[None, :], (S.qd * 0)[None, :], t)[0]
     moving = motion_terms and bool(np.any(psid) or np.any(psidd))
     opts = np.array([pivot_tol, CLOSE_TOL, H_MOTION, float(moving), float(nlaw > 0)])
-    out, work = _buffers(system)
     if nlaw:
         # the laws at the set point's joint rates (phi' psi'), which the kernel sets
         _kernel(system, data, dyn, S, opts, psid, psidd, out, work)
@@ -277,13 +278,22 @@ def _check_mass(lin: Linearization, MFF: np.ndarray) -> None:
     only a small one is looked at closer (eigh) and reported."""
     if MFF.size == 0:
         return
-    top = max(float(np.max(np.abs(np.diag(MFF)))), 1e-300)
-    try:
-        L = np.linalg.cholesky(MFF)
-        if float(np.min(np.diag(L))) ** 2 > SINGULAR_M * top:
+    d = MFF.diagonal().tolist()
+    # the scale M_FF is measured against: its own diagonal, the whole M's, and the
+    # model's mass (a 1 x 1 M_FF of round-off size is as singular as a zero one)
+    system = lin.system
+    mass = float(system.Y.Jb[:, 3, 3].sum()) * min(1.0, system.length_scale ** 2)
+    top = max(max(abs(x) for x in d), float(np.abs(lin.M.diagonal()).max()), mass, 1e-300)
+    if len(d) == 1:
+        if d[0] > SINGULAR_M * top:
             return
-    except np.linalg.LinAlgError:
-        pass
+    else:
+        try:
+            L = np.linalg.cholesky(MFF)
+            if min(L.diagonal().tolist()) ** 2 > SINGULAR_M * top:
+                return
+        except np.linalg.LinAlgError:
+            pass
     lam, vec = np.linalg.eigh(0.5 * (MFF + MFF.T))
     bad = np.flatnonzero(lam <= SINGULAR_M * top)
     if bad.size == 0:
@@ -298,6 +308,22 @@ def _check_mass(lin: Linearization, MFF: np.ndarray) -> None:
         + (("bodies " + ", ".join(bodies)) if bodies else "no body") + " without "
         "kinetic energy (no mass or inertia there); give those bodies mass and inertia "
         "(Model.add_mass, DATA MASS / DATA INERTIA) or specify the coordinate")
+
+
+def _eigen(Sm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Eigenvalues and eigenvectors of the first-order matrix (14.11).  One FGC: the
+    roots of s^2 - S00 s - S01 = 0 (m s^2 + d s + k) with eigenvectors (lambda, 1),
+    in closed form (numpy's general solver costs more than the rest of a call)."""
+    if Sm.shape[0] != 2:
+        return np.linalg.eig(Sm)
+    b, c = -float(Sm[0, 0]), -float(Sm[0, 1])  # s^2 + b s + c
+    disc = cmath.sqrt(b * b - 4.0 * c)
+    # the larger root without cancellation, the other from the product c
+    r1 = (-b - disc) / 2.0 if b >= 0 else (-b + disc) / 2.0
+    r2 = c / r1 if r1 != 0 else (-b - r1)
+    lam = np.array([r1, r2], complex)
+    eta = np.array([[r1, r2], [1.0, 1.0]], complex)
+    return lam, eta / np.sqrt(np.abs(lam) ** 2 + 1.0)
 
 
 def _first_order(MFF: np.ndarray, DFF: np.ndarray, KFF: np.ndarray) -> np.ndarray:
@@ -331,39 +357,45 @@ def modes(lin: Linearization | System, **kwargs: Any) -> Modes:
         lin = linearize(lin, **kwargs)
     elif kwargs:
         raise InputError("modes: arguments besides a Linearization are for a System")
-    nf = lin.free.size
+    free = lin.free
+    nf = free.size
     if nf == 0:
         raise AnalysisError("modes: there are no free generalized coordinates (every "
                             "coordinate is specified), so nothing can vibrate")
     Sm = _first_order(*_free_blocks(lin))
-    lam, eta = np.linalg.eig(Sm)
-    scale = max(float(np.max(np.abs(lam))), 1.0)
-    tol = 1e-9 * scale
+    lam, eta = _eigen(Sm)
+    # per eigenvalue in plain Python: a few of them, where numpy's per-call cost dominates
+    lams = lam.tolist()
+    tol = 1e-9 * max(max(abs(z) for z in lams), 1.0)
     # one entry per mode: a real eigenvalue, or the upper member of a pair; slowest first
-    keep = np.flatnonzero((np.abs(lam.imag) <= tol) | (lam.imag > 0))
-    keep = keep[np.argsort(np.abs(lam[keep]), kind="stable")]
+    keep = sorted((k for k, z in enumerate(lams) if abs(z.imag) <= tol or z.imag > 0),
+                  key=lambda k: abs(lams[k]))
+    m = len(keep)
     mlam = lam[keep]
-    real = np.abs(mlam.imag) <= tol
     shapes = eta[nf:, keep]
-    big = shapes[np.argmax(np.abs(shapes), axis=0), np.arange(keep.size)]
-    shapes = shapes / np.where(big == 0, 1.0, big)
-    shapes[:, real] = shapes[:, real].real
-    mag = np.abs(mlam)
-    osc = ~real
-    freq = np.where(osc, mag, np.nan)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        damp = np.where(osc, -mlam.real / np.where(osc, mag, 1.0) + 0.0, np.nan)
-        neutral = real & (np.abs(mlam.real) <= tol)
-        tau = np.where(real, np.where(neutral, np.inf, -1.0 / np.where(neutral, 1.0,
-                                                                         mlam.real)), np.nan)
-    damped = np.where(osc, mlam.imag, 0.0)
-    kinds = ["oscillatory" if o else "neutral" if n else "overdamped"
-             for o, n in zip(osc, neutral, strict=True)]
+    freq, damp, damped, tau = [math.nan] * m, [math.nan] * m, [0.0] * m, [math.nan] * m
+    kinds = []
+    for r, k in enumerate(keep):
+        z = lams[k]
+        col = shapes[:, r]
+        i = int(np.argmax(np.abs(col)))
+        if col[i] != 0:
+            shapes[:, r] = col / col[i]
+        if abs(z.imag) > tol:
+            freq[r] = abs(z)
+            damp[r] = -z.real / abs(z) + 0.0
+            damped[r] = z.imag
+            kinds.append("oscillatory")
+        else:
+            shapes[:, r] = shapes[:, r].real
+            neutral = abs(z.real) <= tol
+            tau[r] = math.inf if neutral else -1.0 / z.real
+            kinds.append("neutral" if neutral else "overdamped")
     unstable = mlam.real > tol
-    joint = lin.phi[:, lin.free] @ shapes
-    return Modes(lin, [lin.coords[i] for i in lin.free], lam[np.argsort(np.abs(lam),
-                 kind="stable")], mlam, freq, damp, damped, tau, kinds, unstable, shapes,
-                 joint, Sm)
+    joint = lin.phi[:, free] @ shapes
+    return Modes(lin, [lin.coords[i] for i in free], lam[np.argsort(np.abs(lam),
+                 kind="stable")], mlam, np.array(freq), np.array(damp), np.array(damped),
+                 np.array(tau), kinds, unstable, shapes, joint, Sm)
 
 
 def modes_along(system: System, q: Any, rates: Any = None, accels: Any = None, *,
@@ -460,6 +492,21 @@ def _per_step(system: System, values: Any, n: int, what: str) -> np.ndarray:
             raise InputError(f"{what}[{key!r}] must be a finite number or {n} of them")
         out[:, c] = arr / system.var_scale[c]
     return out
+
+
+#: per System, the scratch of its last linearization (re-used: allocating it costs as
+#: much as the compiled kernel); the results never alias it
+_SCRATCH: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _scratch(system: System) -> tuple[Any, Any, tuple, tuple]:
+    """(Data, DynData, out, work) of :func:`linearize` for ``system``, made once."""
+    got = _SCRATCH.get(system)
+    if got is None:
+        got = (make_data(system, system.nq), make_dyn_data(system, system.nq),
+               *_buffers(system))
+        _SCRATCH[system] = got
+    return got
 
 
 def _buffers(system: System) -> tuple[tuple, tuple]:
