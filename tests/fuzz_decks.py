@@ -189,6 +189,14 @@ def _statement(rng: random.Random) -> str:
         lambda: f"DATA VIEW = {x(rng)}, {x(rng)}, {x(rng)}; {x(rng)}, {x(rng)}, {x(rng)}",
         lambda: f"TITLE = {rng.choice(['X', 'Y' * 90])}{rng.choice(CONTROL_CHARS)}Z",
         lambda: "FIND EQUILIB" if rng.random() < 0.5 else "FIND DYNAMICS",
+        lambda: "PRINT FREQUENCY",
+        lambda: f"{rng.choice(['PRINT', 'STORE'])} DYNAMICS "
+                f"({rng.choice(['FORCE', 'MOTION', 'X'])}, {n(rng)}, {x(rng)}) = "
+                f"{rng.choice(['POSITION', 'VELOCITY', 'ACCEL', 'Q'])}, {n(rng)}; "
+                f"{rng.choice(['POSITION', 'ACCEL'])}, {n(rng)}",
+        lambda: f"{rng.choice(['LIST', 'PLOT'])} DYNAMICS ({x(rng)}, {x(rng)}, {x(rng)} "
+                f"{rng.choice(['/', ';'])} {rng.choice(['FORCE', 'MOTION'])}, {n(rng)}, "
+                f"{x(rng)}) = {rng.choice(['POSITION', 'VELOCITY'])}, {n(rng)}",
         lambda: f"DELETE {rng.choice(['INPUT ALL', 'POINT (P)', 'JOINT (A)', 'EQUILIB'])}",
         lambda: f"UNIT (MASS) = {x(rng)}",
         lambda: f"SOLID READ (S1) = {rng.choice(FILES)}",
