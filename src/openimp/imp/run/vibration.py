@@ -311,7 +311,13 @@ def analyse(prep: Prepared, sol: Solution, items: list[Item], notes: list[str]) 
             _frequencies(it, prep, sol, lins, out)
         elif it.kind == "dynamics":
             _dynamics(it, prep, sol, lins, out)
-    approximated = {m for lin in lins.cache.values() if isinstance(lin, Linearization)
-                    for m in lin.messages}
-    _note_once(notes, [f"linearized equations: {m}" for m in sorted(approximated)])
+    if prep.built.dyn.laws is not None and lins.cache:
+        # the VALUE laws read the solved step, not the nudged postures of the derivatives
+        _note_once(notes, ["linearized equations: spring, damper and load data given by "
+                           "VALUE expressions are held at their values of each position; "
+                           "how they change with a small motion is not included"])
+    else:
+        approximated = {m for lin in lins.cache.values() if isinstance(lin, Linearization)
+                        for m in lin.messages}
+        _note_once(notes, [f"linearized equations: {m}" for m in sorted(approximated)])
     return out
