@@ -58,6 +58,7 @@ def test_vibration_docs_run_and_are_right(tmp_path, monkeypatch, capsys) -> None
         i = e.coords.index("E.s")
         ref.append(np.sqrt(k / e.M[i, i]))
     np.testing.assert_allclose(ns["freq"], ref, rtol=1e-10)
+    np.testing.assert_allclose(ns["fmap"].frequency[:, 0], ns["freq"], rtol=1e-12)
     # --- the isolator
     k, mb, cb = ns["k"], ns["mb"], ns["cb"]
     s = 1j * ns["w"]
