@@ -46,7 +46,7 @@ import numpy as np
 from openimp._jit import njit
 from openimp.dynamics.eom import generalized, generalized_forces
 from openimp.dynamics.inertia import body_inertias, inertia_wrenches, mass_matrix
-from openimp.dynamics.loads import COINCIDENT, applied_loads
+from openimp.dynamics.loads import COINCIDENT, applied_loads, point_motion
 from openimp.kinematics.posture import newton
 from openimp.kinematics.rates import accelerations, velocity, velocity_product
 from openimp.mat4 import screw_bracket
@@ -125,23 +125,6 @@ def second_derivatives(KP: tuple, DP: tuple, ZP: tuple, S: tuple, gen: np.ndarra
                     A2[b, k, j, i] = v
                 screw_bracket(z.W[b, k], z.W[b, j], 0.5, A2[b, j, k])
                 screw_bracket(z.W[b, j], z.W[b, k], 0.5, A2[b, k, j])
-
-
-@njit(nrt=False, inline="always")
-def _point_rate(KP: tuple, DP: tuple, p: int, r: np.ndarray, v: np.ndarray) -> int:
-    """Global position r and velocity v (d.V) of point p; returns its body."""
-    K = model_views(KP)
-    d = data_views(DP)
-    b = K.ptbody[p]
-    T = d.T0[b]
-    x = K.ptlocal[p]
-    for i in range(3):
-        r[i] = T[i, 0] * x[0] + T[i, 1] * x[1] + T[i, 2] * x[2] + T[i, 3]
-    V = d.V[b]
-    v[0] = V[0] + V[4] * r[2] - V[5] * r[1]
-    v[1] = V[1] + V[5] * r[0] - V[3] * r[2]
-    v[2] = V[2] + V[3] * r[1] - V[4] * r[0]
-    return b
 
 
 @njit(nrt=False, inline="always")
@@ -230,8 +213,8 @@ def load_rates(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, dF: np.ndar
     for i in range(y.ekind.shape[0]):
         kind = y.ekind[i]
         if kind == SPRING or kind == DAMPER:
-            b1 = _point_rate(KP, DP, y.ept[i, 0], r1, v1)
-            b2 = _point_rate(KP, DP, y.ept[i, 1], r2, v2)
+            b1 = point_motion(KP, DP, y.ept[i, 0], r1, v1)
+            b2 = point_motion(KP, DP, y.ept[i, 1], r2, v2)
             ln, lr = _direction_rate(r1, r2, v1, v2, u, du)
             if ln < COINCIDENT:
                 continue
@@ -249,8 +232,8 @@ def load_rates(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, dF: np.ndar
         mag = z.law[y.elaw[i]] if y.elaw[i] >= 0 else y.evalue[i]
         first = 1 if kind == FORCE else 0
         if y.ept[i, first] >= 0:
-            _point_rate(KP, DP, y.ept[i, first], r2, v2)
-            _point_rate(KP, DP, y.ept[i, first + 1], r1, v1)
+            point_motion(KP, DP, y.ept[i, first], r2, v2)
+            point_motion(KP, DP, y.ept[i, first + 1], r1, v1)
             ln, _ = _direction_rate(r1, r2, v1, v2, u, du)
             if ln < COINCIDENT:
                 continue
@@ -260,7 +243,7 @@ def load_rates(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, dF: np.ndar
                 du[k] = 0.0
         b = y.ebody[i]
         if kind == FORCE:
-            _point_rate(KP, DP, y.ept[i, 0], r1, v1)
+            point_motion(KP, DP, y.ept[i, 0], r1, v1)
             _add_force_rate(dF[b], mag, u, 0.0, du, r1, v1)
         elif kind == TORQUE:
             for k in range(3):

@@ -33,7 +33,7 @@ COINCIDENT = 1e-12
 
 
 @njit(nrt=False, inline="always")
-def _point(KP: tuple, DP: tuple, p: int, out: np.ndarray, vel: np.ndarray) -> int:
+def point_motion(KP: tuple, DP: tuple, p: int, out: np.ndarray, vel: np.ndarray) -> int:
     """Global position (out) and velocity (vel) of point p; returns its body."""
     K = model_views(KP)
     d = data_views(DP)
@@ -136,8 +136,8 @@ def applied_loads(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple
         z.eskip[i] = False
         z.epower[i] = 0.0
         if kind == SPRING or kind == DAMPER:
-            b1 = _point(KP, DP, y.ept[i, 0], r1, v1)
-            b2 = _point(KP, DP, y.ept[i, 1], r2, v2)
+            b1 = point_motion(KP, DP, y.ept[i, 0], r1, v1)
+            b2 = point_motion(KP, DP, y.ept[i, 1], r2, v2)
             ln = _unit_between(r1, r2, u)
             z.elen[i] = ln
             if ln < COINCIDENT:
@@ -165,8 +165,8 @@ def applied_loads(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple
         z.eforce[i] = mag
         first = 1 if kind == FORCE else 0
         if y.ept[i, first] >= 0:  # direction from one point toward another
-            _point(KP, DP, y.ept[i, first], r2, v2)
-            _point(KP, DP, y.ept[i, first + 1], r1, v1)
+            point_motion(KP, DP, y.ept[i, first], r2, v2)
+            point_motion(KP, DP, y.ept[i, first + 1], r1, v1)
             ln = _unit_between(r1, r2, u)
             z.elen[i] = ln
             if ln < COINCIDENT:
@@ -177,7 +177,7 @@ def applied_loads(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple
                 u[k] = y.edir[i, k]
         b = y.ebody[i]
         if kind == FORCE:
-            _point(KP, DP, y.ept[i, 0], r1, v1)
+            point_motion(KP, DP, y.ept[i, 0], r1, v1)
             _add_force(z.Fext[b], u, mag, r1)
             z.epower[i] = mag * (u[0] * v1[0] + u[1] * v1[1] + u[2] * v1[2])
         elif kind == TORQUE:
