@@ -760,3 +760,18 @@ def test_state_and_modes_along_agree_with_linearize():
         np.testing.assert_allclose(mm.frequency[k, :osc.size], osc, rtol=1e-12)
         np.testing.assert_allclose(np.sort_complex(mm.eigenvalues[k]),
                                    np.sort_complex(md.eigenvalues), rtol=1e-12, atol=1e-12)
+
+
+def test_unassembled_posture_is_refused():
+    """A posture whose loops do not close is bad input for linearize (a located
+    message, not numbers about a mechanism that is not there); modes_along reports the
+    step and goes on with the others."""
+    system = fivebar()
+    q = posture(system, {"A": 0.4, "E": -0.2})
+    bad = q.copy()
+    bad[system.var_index("B")] += 0.05
+    with pytest.raises(openimp.InputError, match="not an assembled posture"):
+        openimp.linearize(system, bad)
+    mm = openimp.modes_along(system, np.array([q, bad, q]))
+    assert np.isfinite(mm.frequency[[0, 2], 0]).all() and np.isnan(mm.frequency[1]).all()
+    assert any("step 1: not an assembled posture" in m for m in mm.messages)

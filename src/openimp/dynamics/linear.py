@@ -431,13 +431,16 @@ def linearize_kernel(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
 def linearize_steps(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
                     gen: np.ndarray | None, opts: np.ndarray, Q: np.ndarray,
                     PSID: np.ndarray, PSIDD: np.ndarray, T: np.ndarray, MDK: np.ndarray,
-                    NF: np.ndarray, COLS: np.ndarray, out: tuple, work: tuple) -> None:
+                    NF: np.ndarray, COLS: np.ndarray, RES: np.ndarray, out: tuple,
+                    work: tuple) -> None:
     """:func:`linearize_kernel` at every row of Q (steps, nq; internal units, assembled
     postures) with the rates PSID, accelerations PSIDD (steps, nq) and times T
     (steps,), the SGCs S.sgc throughout: M, D, K into MDK (steps, 3, nq, nq), the
     coordinate count (or -1 where a closure failed) into NF and the coordinates
-    into COLS (steps, nq).  ``opts[3]`` (motion terms) applies where a step moves."""
+    into COLS (steps, nq), the largest loop residual of the posture into RES (steps,).
+    ``opts[3]`` (motion terms) applies where a step moves."""
     z = dyn_data_views(ZP)
+    d = data_views(DP)
     M, D, K = out[0], out[1], out[2]
     moving = opts[3]
     for k in range(Q.shape[0]):
@@ -453,6 +456,10 @@ def linearize_steps(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
                                          out, work)
         opts[3] = moving
         NF[k] = nf if status == 0 else -1
+        res = 0.0
+        for r in range(d.E.shape[0]):
+            res = max(res, abs(d.E[r]))
+        RES[k] = res
         for i in range(nf):
             COLS[k, i] = z.cols[i]
             for j in range(nf):

@@ -52,6 +52,8 @@ from openimp.system import FORCE, TORQUE, State, System, make_data, make_dyn_dat
 CLOSE_TOL = 1e-13
 #: relative size of M_FF's smallest eigenvalue below which it is singular
 SINGULAR_M = 1e-12
+#: largest loop residual (internal units) of a posture accepted as assembled
+ASSEMBLED = 1e-6
 
 OUTPUT_KINDS = ("position", "velocity", "accel")
 INPUT_KINDS = ("force", "load", "motion")
@@ -105,6 +107,11 @@ def linearize(system: System, q: Any = None, rates: Any = None, accels: Any = No
         _kernel(system, data, dyn, S, opts, psid, psidd, out, work)
         dyn.view("law")[:] = _laws(system, S.q[None, :], S.qd[None, :], t)[0]
     nf, rank, status = _kernel(system, data, dyn, S, opts, psid, psidd, out, work)
+    residual = float(np.abs(data.view("E")).max(initial=0.0))
+    if residual > ASSEMBLED:
+        raise InputError(f"linearize: q is not an assembled posture (the loops miss closing "
+                         f"by {residual:.3g}); close it first, e.g. with openimp.sweep(system, "
+                         "{driver: [value]}).q[0]")
     if status:
         name = system.var_names[int(dyn.view("cols")[status - 1])]
         raise AnalysisError(f"linearize: the loops do not close when {name} moves by "
@@ -445,7 +452,7 @@ def modes_along(system: System, q: Any, rates: Any = None, accels: Any = None, *
             lins.append(linearize(system, qm[k], r, a, specified=specified, t=float(T[k]),
                                   pivot_tol=pivot_tol))
         return _mode_map(system, qm, [([k], np.stack([lin.M, lin.D, lin.K])[None],
-                                       lin.coords, lin.specified)
+                                       lin.coords, lin.specified, 0)
                                       for k, lin in enumerate(lins)])
     S = make_state(system, system.to_internal(qm[0]), float(T[0]))
     S.sgc[:] = sgc
@@ -456,24 +463,27 @@ def modes_along(system: System, q: Any, rates: Any = None, accels: Any = None, *
     MDK = np.zeros((n, 3, nq, nq))
     NF = np.zeros(n, np.int64)
     COLS = np.zeros((n, nq), np.int64)
+    RES = np.zeros(n)
     linearize_steps(system.KP, data.DP, system.YP, dyn.ZP, S, system.gen, opts,
-                    system.to_internal(qm), psid, psidd, T, MDK, NF, COLS, out, work)
+                    system.to_internal(qm), psid, psidd, T, MDK, NF, COLS, RES, out, work)
+    loose = np.flatnonzero(RES > ASSEMBLED)
+    NF[loose] = -2
     vs = system.var_scale
     Ls = system.length_scale
     groups: dict[tuple[int, ...], list[int]] = {}
     for k in range(n):
-        key = tuple(COLS[k, :NF[k]]) if NF[k] >= 0 else (-1,)
+        key = tuple(COLS[k, :NF[k]]) if NF[k] >= 0 else (int(NF[k]),)
         groups.setdefault(key, []).append(k)
     blocks = []
     for key, idx in groups.items():
-        if key == (-1,):
-            blocks.append((idx, None, [], np.zeros(0, bool)))
+        if key[0] < 0:
+            blocks.append((idx, None, [], np.zeros(0, bool), key[0]))
             continue
         cols = np.array(key, np.int64)
         nf = cols.size
         sc = np.outer(np.where(vs[cols] == 1.0, Ls * Ls, Ls), 1.0 / vs[cols])
         blocks.append((idx, MDK[idx, :, :nf, :nf] * sc, [system.var_names[c] for c in cols],
-                       sgc[cols]))
+                       sgc[cols], 0))
     return _mode_map(system, qm, blocks)
 
 
@@ -524,17 +534,18 @@ def _buffers(system: System) -> tuple[tuple, tuple]:
 def _mode_map(system: System, qm: np.ndarray, blocks: list) -> ModeMap:
     """Eigenvalues of every step's FGC system, solved together for the steps of one set of
     coordinates; frequencies sorted per step.  ``blocks``: (steps, MDK (steps, 3, f,
-    f) model units or None where no closure, coordinate names, specified mask)."""
+    f) model units or None, coordinate names, specified mask, why None: -1 the loops
+    do not close near the posture, -2 it is not assembled)."""
     n = qm.shape[0]
     sizes = [-1] * n
-    for idx, _, _, spec in blocks:
+    for idx, X, _, spec, fail in blocks:
         for k in idx:
-            sizes[k] = -1 if _ is None else int((~spec).sum())
+            sizes[k] = fail if X is None else int((~spec).sum())
     width = max([s for s in sizes if s > 0], default=0)
     lam = np.full((n, 2 * width), np.nan + 0j)
     coords: list[list[str]] = [[] for _ in range(n)]
     messages = []
-    for idx, X, names, spec in blocks:
+    for idx, X, names, spec, _ in blocks:
         F = np.flatnonzero(~spec)
         nf = F.size
         if X is None or nf == 0:
@@ -562,7 +573,10 @@ def _mode_map(system: System, qm: np.ndarray, blocks: list) -> ModeMap:
         order = np.argsort(np.abs(ev), axis=1, kind="stable")
         lam[rows, :2 * nf] = np.take_along_axis(ev, order, axis=1)
     for k, sz in enumerate(sizes):
-        if sz < 0:
+        if sz == -2:
+            messages.append(f"step {k}: not an assembled posture (the loops miss closing by "
+                            "more than 1e-6); no modes")
+        elif sz < 0:
             messages.append(f"step {k}: the loops do not close near this posture (singular)")
         elif sz == 0:
             messages.append(f"step {k}: no free generalized coordinates")
