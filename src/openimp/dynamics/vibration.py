@@ -31,11 +31,13 @@ import weakref
 from typing import Any
 
 import numpy as np
+import scipy.linalg
 
 from openimp.dynamics.laws import law_values
 from openimp.dynamics.linear import H_MOTION, linearize_kernel, linearize_steps
 from openimp.errors import AnalysisError, InputError
 from openimp.kinematics import sweep
+from openimp.kinematics.posture import newton, sgc_residual
 from openimp.kinematics.track import tracker
 from openimp.results import (
     FrequencyResponse,
@@ -62,7 +64,7 @@ INPUT_KINDS = ("force", "load", "motion")
 # ----------------------------------------------------------------------------- linearize
 def linearize(system: System, q: Any = None, rates: Any = None, accels: Any = None, *,
               specified: Any = (), t: float = 0.0, pivot_tol: float = 1e-10,
-              motion_terms: bool = True) -> Linearization:
+              motion_terms: bool = True, close: bool = False) -> Linearization:
     """The linearized equations of motion of ``system`` about one set point (11.11).
 
     ``q``: joint variables (nq,), model units, an assembled posture (default
@@ -74,21 +76,32 @@ def linearize(system: System, q: Any = None, rates: Any = None, accels: Any = No
     elimination leaves; ``rates``, ``accels``: mappings coordinate -> rate,
     acceleration at the set point (default at rest).  ``motion_terms``: add the
     position derivatives of the velocity and acceleration terms that the
-    book's K (11.9) leaves out (default; they vanish at rest).
+    book's K (11.9) leaves out (default; they vanish at rest).  ``close``:
+    first close the loops of ``q`` to 1e-13 holding the generalized
+    coordinates (a posture solved to a looser tolerance); otherwise a posture
+    that misses closing by more than 1e-6 is refused.
+
+    Rates and accelerations are those of the generalized coordinates: one given
+    for a variable that the elimination makes dependent is an input error
+    (specify it, or give the rate of a generalized coordinate).
     """
     if not isinstance(system, System):
         raise InputError(f"linearize takes a compiled System, got {type(system).__name__}")
     nq = system.nq
+    pivot_tol = _positive(pivot_tol, "pivot_tol")
+    specified = _names(specified)
+    given = not isinstance(q, State)
     if isinstance(q, State):
         vs = system.var_scale
         st, q, t = q, system.to_model(q.q), q.time
         specified = list(specified) + [system.var_names[c] for c in np.flatnonzero(st.sgc)]
         rates = {system.var_names[c]: st.qd[c] * vs[c] for c in range(nq) if st.qd[c]}
         accels = {system.var_names[c]: st.qdd[c] * vs[c] for c in range(nq) if st.qdd[c]}
-    qm = system.modeling_q if q is None else np.asarray(q, float)
+    qm = system.modeling_q if q is None else _floats(q, "q")
     if qm.shape != (nq,) or not np.all(np.isfinite(qm)):
         raise InputError(f"q must hold the {nq} joint variables as finite numbers, got "
                          f"shape {qm.shape}")
+    t = float(_floats(t, "t"))
     S = make_state(system, system.to_internal(qm), t)
     for key in specified:
         S.sgc[system.var_index(key)] = True
@@ -108,6 +121,14 @@ def linearize(system: System, q: Any = None, rates: Any = None, accels: Any = No
         dyn.view("law")[:] = _laws(system, S.q[None, :], S.qd[None, :], t)[0]
     nf, rank, status = _kernel(system, data, dyn, S, opts, psid, psidd, out, work)
     residual = float(np.abs(data.view("E")).max(initial=0.0))
+    if close and residual > CLOSE_TOL:
+        sgc0 = S.sgc.copy()
+        S.sgc[dyn.view("cols")[:nf]] = True
+        newton(system.KP, data.DP, S, system.gen, CLOSE_TOL, pivot_tol, 30, False)
+        S.sgc[:] = sgc0
+        qm = system.to_model(S.q)
+        nf, rank, status = _kernel(system, data, dyn, S, opts, psid, psidd, out, work)
+        residual = float(np.abs(data.view("E")).max(initial=0.0))
     if residual > ASSEMBLED:
         raise InputError(f"linearize: q is not an assembled posture (the loops miss closing "
                          f"by {residual:.3g}); close it first, e.g. with openimp.sweep(system, "
@@ -119,6 +140,7 @@ def linearize(system: System, q: Any = None, rates: Any = None, accels: Any = No
                             "singular position; move the set point away from it")
     M, D, K, F, _, _, Gl, qpl, qdpl = out
     cols = dyn.view("cols")[:nf].copy()
+    _check_coordinates(system, data, cols, rank, S.sgc, psid, psidd, given)
     G = dyn.view("Gf")[:, :nf].copy()
     M, D, K, F = M[:nf, :nf].copy(), D[:nf, :nf].copy(), K[:nf, :nf].copy(), F[:nf].copy()
     messages: list[str] = []
@@ -138,6 +160,56 @@ def linearize(system: System, q: Any = None, rates: Any = None, accels: Any = No
         _element_directions(system, data, dyn, nf, cols), _body_screws(system, dyn, nf, cols),
         int(rank), messages)
     return lin
+
+
+def _check_coordinates(system: System, data: Any, cols: np.ndarray, rank: int,
+                       sgc: np.ndarray, psid: np.ndarray, psidd: np.ndarray, given: bool
+                       ) -> None:
+    """Specified coordinates must be independent, and given rates those of generalized
+    coordinates (a dependent variable's rate follows from them: phi' psi')."""
+    names = [system.var_names[c] for c in cols]
+    if sgc.any() and sgc_residual(data, sgc, rank) > 1e-8:
+        spec = [system.var_names[c] for c in np.flatnonzero(sgc)]
+        raise InputError(f"specified: {', '.join(spec)} are not independent at this posture "
+                         "(one of them follows from the others); specify fewer")
+    if not given:
+        return
+    for what, v in (("rates", psid), ("accels", psidd)):
+        bad = [system.var_names[c] for c in np.flatnonzero(v) if c not in set(cols.tolist())]
+        if bad:
+            raise InputError(f"{what}: {', '.join(bad)} is not a generalized coordinate at "
+                             f"this posture (they are {', '.join(names) or 'none'}); "
+                             "specify it, or give the value of a generalized coordinate")
+
+
+def _positive(x: Any, what: str) -> float:
+    try:
+        v = float(x)
+    except (TypeError, ValueError):
+        raise InputError(f"{what} must be a positive number, got {x!r}") from None
+    if not (math.isfinite(v) and v > 0):
+        raise InputError(f"{what} must be a positive number, got {x!r}")
+    return v
+
+
+def _floats(x: Any, what: str) -> np.ndarray:
+    try:
+        return np.asarray(x, float)
+    except (TypeError, ValueError):
+        raise InputError(f"{what} must be numbers, got {x!r}") from None
+
+
+def _names(specified: Any) -> list[str]:
+    """The specified coordinates as a list of names (a single name allowed)."""
+    if specified is None:
+        return []
+    if isinstance(specified, str):
+        return [specified]
+    try:
+        return list(specified)
+    except TypeError:
+        raise InputError(f"specified must be names of joints or 'joint.var', got "
+                         f"{specified!r}") from None
 
 
 def _kernel(system: System, data: Any, dyn: Any, S: Any, opts: np.ndarray, psid: np.ndarray,
@@ -692,18 +764,52 @@ def transfer_function(lin: Linearization, input: Any, output: Any) -> TransferFu
 
 def _ss2tf(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray
            ) -> tuple[np.ndarray, np.ndarray]:
-    """num, den of C (sI - A)^-1 B + D: den = det(sI - A) from the eigenvalues,
-    num = det(sI - A + B C) + (D - 1) den (one input, one output)."""
-    den = np.real(np.poly(np.linalg.eigvals(A)))
-    num = np.real(np.poly(np.linalg.eigvals(A - B @ C))) + (D[0, 0] - 1.0) * den
-    return num, den
+    """num, den of H(s) = C (sI - A)^-1 B + D (one input, one output), from roots.
+
+    den = det(sI - A) from the eigenvalues of A (monic); num = g prod (s - z_i)
+    with the zeros z_i the finite generalized eigenvalues of the Rosenbrock
+    pencil ([[A, B], [C, D]], [[I, 0], [0, 0]]) (QZ: backward stable) and the
+    gain g from H at the sample of largest |H| among points on the circle of
+    the eigenvalues' geometric-mean size (turned off the axes, where poles of
+    real and undamped modes sit).  Subtracting polynomials instead loses every
+    digit on a stiff system.  Terms below 1e-12 of the largest at that size are
+    round-off and set to zero.
+    """
+    lam = np.linalg.eigvals(A)
+    n = lam.size
+    mags = np.abs(lam[np.abs(lam) > 0])
+    w0 = float(np.exp(np.mean(np.log(mags)))) if mags.size else 1.0
+    den = _clean(np.real(np.poly(lam)), w0)
+    P = np.block([[A, B], [C, D]])
+    Q = np.zeros_like(P)
+    Q[:n, :n] = np.eye(n)
+    with np.errstate(all="ignore"):
+        z = scipy.linalg.eigvals(P, Q)
+    z = z[np.isfinite(z) & (np.abs(z) < 1e10 * max(w0, 1.0))]
+    sk = w0 * np.exp(2j * np.pi * (np.arange(n + 1) + 0.3) / (n + 1))
+    H = np.array([(C @ np.linalg.solve(sv * np.eye(n) - A, B))[0, 0] + D[0, 0] for sv in sk])
+    k = int(np.argmax(np.abs(H)))
+    if abs(H[k]) == 0.0:
+        return np.zeros(1), den
+    g = H[k] * np.polyval(den, sk[k]) / np.prod(sk[k] - z)
+    num = np.real(g * np.poly(z)) if z.size else np.array([g.real])
+    return _trim(_clean(num, w0)), den
+
+
+def _clean(c: np.ndarray, w0: float) -> np.ndarray:
+    """Zero the coefficients (highest power first) whose terms at |s| = w0 are below
+    1e-12 of the largest: round-off of a cancelled or absent power."""
+    terms = np.abs(c) * w0 ** np.arange(c.size - 1, -1, -1)
+    big = float(terms.max()) if terms.size else 0.0
+    out = c.copy()
+    out[terms <= 1e-12 * big] = 0.0
+    return out
 
 
 def _trim(num: np.ndarray) -> np.ndarray:
-    """Drop leading coefficients that are round-off of a cancelled degree."""
-    big = float(np.max(np.abs(num))) if num.size else 0.0
+    """Drop leading zero coefficients (a numerator of lower degree)."""
     k = 0
-    while k < num.size - 1 and abs(num[k]) <= 1e-11 * big:
+    while k < num.size - 1 and num[k] == 0.0:
         k += 1
     return num[k:]
 
