@@ -775,3 +775,112 @@ def test_unassembled_posture_is_refused():
     mm = openimp.modes_along(system, np.array([q, bad, q]))
     assert np.isfinite(mm.frequency[[0, 2], 0]).all() and np.isnan(mm.frequency[1]).all()
     assert any("step 1: not an assembled posture" in m for m in mm.messages)
+
+
+# ---------------------------------------------------------------- review findings
+
+
+def test_rate_of_a_dependent_variable_and_overspecification_refused():
+    """A rate given for a variable the elimination makes dependent would be dropped: an
+    input error naming it and the generalized coordinates; so are specified coordinates
+    that are not independent."""
+    system = fourbar()
+    coords = openimp.linearize(system).coords
+    dep = next(n for n in ("A", "B", "C", "D") if f"{n}.theta" not in coords)
+    with pytest.raises(openimp.InputError, match="not a generalized coordinate"):
+        openimp.linearize(system, rates={dep: 10.0})
+    with pytest.raises(openimp.InputError, match="not independent"):
+        openimp.linearize(fivebar(), specified=["A", "E", "C"])
+
+
+def test_stiff_chain_transfer_function_coefficients():
+    """A two-mass chain with a 1e8 spring beside a unit one (modes at 1 and 1e4 rad/s):
+    the rational H(s) equals the direct solution at every frequency, below and above the
+    upper mode (1e-8: the coefficients come from roots, not from a difference of
+    polynomials, which lost every digit here), and its numerator is exactly c2 s + k2
+    times 1/(m1 m2) with round-off terms removed."""
+    m1, m2, k1, k2, c1, c2 = 1.0, 1.0, 1e8, 1.0, 1e-3, 1e-3
+    lin = openimp.linearize(chain(m1, m2, k1, k2, c1, c2))
+    tf = openimp.transfer_function(lin, ("force", "F"), ("position", "X1"))
+    w = np.array([0.5, 1.0, 50.0, 1.01e4, 2e4])
+    fr = openimp.frequency_response(lin, ("force", "F"), ("position", "X1"), w)
+    np.testing.assert_allclose(tf(1j * w), fr.H[:, 0], rtol=1e-8)
+    # x1 / F: from the hand M, K, D of the chain: (c2 s + k2) / det(...) / (m1 m2)
+    np.testing.assert_allclose(tf.num, [c2, k2], rtol=1e-8)
+    M, D, K, b = chain_hand(m1, m2, k1, k2, c1, c2)
+    s = 1j * w
+    ref = [np.linalg.solve(si**2 * M + si * D + K, b)[0] for si in s]
+    np.testing.assert_allclose(fr.H[:, 0], ref, rtol=1e-9)
+
+
+def test_neutral_mode_is_neutral_not_unstable():
+    """The coupler's passive spin between the two balls of the RSSR has no stiffness; its
+    K_FF is round-off (1e-14), which must give a neutral mode, not an unstable pair or a
+    1e-7 rad/s oscillation."""
+    system = rssr(universal=False)
+    for a in (0.1, 0.3, 0.5):
+        q = posture(system, {"A": a}, hold_free=True)
+        md = openimp.modes(openimp.linearize(system, q, specified=("A",)))
+        assert md.kind == ["neutral", "neutral"] and not md.unstable.any(), md.to_table()
+
+
+def test_light_part_on_a_heavy_carriage_is_not_massless():
+    """A 1 g rotor (I = 1e-8) on a 10 t carriage (an SGC): M_FF is small but not singular
+    (measured against the model's mass, not the carriage's block of M)."""
+    md = openimp.Model("heavy")
+    md.add_joint("prismatic", "X", "BASE", "B", origin=(0, 0, 0), axis=(1, 0, 0))
+    md.add_joint("revolute", "R", "B", "ROT", origin=(0.1, 0, 0), axis=(0, 0, 1))
+    md.add_mass("B", 1e4, (0, 0, 0), np.diag([100.0] * 3))
+    md.add_mass("ROT", 1e-3, (0.1, 0, 0), np.diag([1e-8] * 3))
+    md.set_joint_spring("R", 1e-3, free=0.0)
+    got = openimp.modes(openimp.compile(md), specified=["X"]).frequency
+    np.testing.assert_allclose(got, [np.sqrt(1e-3 / 1e-8)], rtol=1e-9)
+
+
+def test_pole_frequency_and_modes_along_edges():
+    """w at a pole (a free block with only a damper, w = 0) is an analysis error naming
+    it; modes_along takes no postures, a structure and wrong times as it should, and pads
+    missing modes with NaN, not inf."""
+    lin = openimp.linearize(smd(2.0, 0.0, 1.0))
+    with pytest.raises(openimp.AnalysisError, match="w = 0 rad/s is a pole"):
+        openimp.frequency_response(lin, ("force", "F"), ("position", "X"), [0.0, 1.0])
+    system = fivebar()
+    empty = openimp.modes_along(system, np.zeros((0, system.nq)))
+    assert empty.nsteps == 0 and empty.frequency.shape[0] == 0
+    q = posture(system, {"A": 0.4, "E": -0.2})
+    with pytest.raises(openimp.InputError, match="one time or 2 of them"):
+        openimp.modes_along(system, np.array([q, q]), t=[0.0, 1.0, 2.0])
+    one = openimp.modes_along(system, q[None], specified=["A", "E"])  # nothing free
+    assert one.messages == ["step 0: no free generalized coordinates"]
+    assert np.isnan(one.time_constant).all() and not one.unstable.any()
+    tri = openimp.Model("triangle")
+    tri.add_joint("revolute", "A", "BASE", "L1", origin=(0, 0, 0))
+    tri.add_joint("revolute", "B", "L1", "L2", origin=(1, 0, 0))
+    tri.add_joint("revolute", "C", "L2", "BASE", origin=(0, 1, 0))
+    structure = openimp.compile(tri)
+    mm = openimp.modes_along(structure, structure.modeling_q[None])
+    assert mm.messages == ["step 0: no free generalized coordinates"]
+    with pytest.raises(openimp.AnalysisError, match="structure"):
+        openimp.modes(openimp.linearize(structure))
+
+
+@pytest.mark.parametrize("call, match", [
+    (lambda s, lin, md: openimp.frequency_response(lin, ("force", "F"), ("position", "X"),
+                                                   "abc"), "w must be numbers"),
+    (lambda s, lin, md: openimp.frequency_response(lin, ("force", "F"), [], [1.0]),
+     "at least one"),
+    (lambda s, lin, md: openimp.mode_motion(md, 0, "x"), "amplitude"),
+    (lambda s, lin, md: openimp.mode_motion(md, True), "mode must be an index"),
+    (lambda s, lin, md: openimp.modes("x"), "takes a Linearization"),
+    (lambda s, lin, md: lin.block("K", "XY"), "part must be one of"),
+    (lambda s, lin, md: lin.block("Q", "FF"), "name must be M, D, K or F"),
+    (lambda s, lin, md: openimp.linearize(s, pivot_tol=-1.0), "pivot_tol"),
+    (lambda s, lin, md: openimp.linearize(s, "abc"), "q must be numbers"),
+])
+def test_more_bad_inputs(call, match):
+    """Each ends in an InputError naming the argument (never a raw ValueError,
+    KeyError, ZeroDivisionError or AttributeError)."""
+    s = smd(2.0, 50.0, 1.0)
+    lin = openimp.linearize(s)
+    with pytest.raises(openimp.InputError, match=match):
+        call(s, lin, openimp.modes(lin))

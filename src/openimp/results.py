@@ -736,7 +736,9 @@ class Linearization:
 
     Over the generalized coordinates ``coords`` (f names; ``specified`` (f,)
     marks the SGCs, the rest are FGCs): M, D, K (f, f), F (f,) the generalized
-    force left at the set point (11.10; the inertia term excluded).  Rows are
+    force left at the set point (11.10; the inertia term excluded, so that, as
+    in the book, v' is the total acceleration psi'': M psi''* = F in dynamic
+    equilibrium).  Rows are
     generalized forces (force, or moment for an angle), columns per unit of
     the coordinate (radian or length) and its rate.  ``phi`` (nq, f): the
     first geometric derivatives of every joint variable (7.14), model units;
@@ -780,8 +782,14 @@ class Linearization:
     def block(self, name: str, part: str) -> np.ndarray:
         """A partition (11.12) of ``M``, ``D`` or ``K``: part ``"FF"``, ``"FS"``, ``"SF"``,
         ``"SS"``; or of ``F``: ``"F"``, ``"S"``."""
+        if name not in ("M", "D", "K", "F"):
+            raise InputError(f"block: name must be M, D, K or F, got {name!r}")
         X = getattr(self, name)
         idx = {"F": self.free, "S": self.sgc}
+        want = ("F", "S") if X.ndim == 1 else ("FF", "FS", "SF", "SS")
+        if part not in want:
+            raise InputError(f"block({name!r}, ...): part must be one of {', '.join(want)}, "
+                             f"got {part!r}")
         if X.ndim == 1:
             return X[idx[part]]
         return X[np.ix_(idx[part[0]], idx[part[1]])]

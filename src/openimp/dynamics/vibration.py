@@ -53,7 +53,7 @@ from openimp.system import FORCE, TORQUE, State, System, make_data, make_dyn_dat
 #: closure tolerance of the postures the motion terms are differenced over
 CLOSE_TOL = 1e-13
 #: relative size of M_FF's smallest eigenvalue below which it is singular
-SINGULAR_M = 1e-12
+SINGULAR_M = 1e-14
 #: largest loop residual (internal units) of a posture accepted as assembled
 ASSEMBLED = 1e-6
 
@@ -143,7 +143,9 @@ def linearize(system: System, q: Any = None, rates: Any = None, accels: Any = No
     _check_coordinates(system, data, cols, rank, S.sgc, psid, psidd, given)
     G = dyn.view("Gf")[:, :nf].copy()
     M, D, K, F = M[:nf, :nf].copy(), D[:nf, :nf].copy(), K[:nf, :nf].copy(), F[:nf].copy()
-    messages: list[str] = []
+    messages: list[str] = [f"element {system.elements[i]} left out: its two points "
+                           "coincide at this posture (no direction, so no force or stiffness)"
+                           for i in np.flatnonzero(dyn.view("eskip"))]
     if nlaw:
         _law_derivatives(system, S, G, cols, qpl[:nf], qdpl[:nf], Gl[:nf], psid, t, D, K,
                          messages)
@@ -358,11 +360,12 @@ def _check_mass(lin: Linearization, MFF: np.ndarray) -> None:
     if MFF.size == 0:
         return
     d = MFF.diagonal().tolist()
-    # the scale M_FF is measured against: its own diagonal, the whole M's, and the
-    # model's mass (a 1 x 1 M_FF of round-off size is as singular as a zero one)
+    # the scale M_FF is measured against: its own diagonal and the model's mass (a 1 x 1
+    # M_FF of round-off size is as singular as a zero one); not the SGCs' block, which a
+    # heavy carriage would make dwarf a light part that does move
     system = lin.system
     mass = float(system.Y.Jb[:, 3, 3].sum()) * min(1.0, system.length_scale ** 2)
-    top = max(max(abs(x) for x in d), float(np.abs(lin.M.diagonal()).max()), mass, 1e-300)
+    top = max(max(abs(x) for x in d), mass, 1e-300)
     if len(d) == 1:
         if d[0] > SINGULAR_M * top:
             return
@@ -387,6 +390,26 @@ def _check_mass(lin: Linearization, MFF: np.ndarray) -> None:
         + (("bodies " + ", ".join(bodies)) if bodies else "no body") + " without "
         "kinetic energy (no mass or inertia there); give those bodies mass and inertia "
         "(Model.add_mass, DATA MASS / DATA INERTIA) or specify the coordinate")
+
+
+def _rate_scale(M: np.ndarray, D: np.ndarray, K: np.ndarray) -> np.ndarray:
+    """The size of the system's rates, sqrt(|K| / |M|) + |D| / |M| (infinity norms) of
+    M, D, K over every coordinate, SGCs included: a free block of round-off size is
+    measured against the rest of the mechanism.  Batched over leading axes."""
+    def norm(X: np.ndarray) -> np.ndarray:
+        return np.abs(X).sum(axis=-1).max(axis=-1)
+
+    m = np.maximum(norm(M), 1e-300)
+    return np.sqrt(norm(K) / m) + norm(D) / m
+
+
+def _no_fgc(what: str, lin: Linearization) -> str:
+    """Why nothing vibrates: every coordinate specified, or none at all (a structure)."""
+    if not lin.coords:
+        return (f"{what}: the mechanism has no generalized coordinates at this posture (it "
+                "is a structure: mobility 0), so nothing can vibrate")
+    return (f"{what}: there are no free generalized coordinates (every coordinate is "
+            "specified), so nothing can vibrate")
 
 
 def _eigen(Sm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -434,20 +457,28 @@ def modes(lin: Linearization | System, **kwargs: Any) -> Modes:
     """
     if isinstance(lin, System):
         lin = linearize(lin, **kwargs)
+    elif not isinstance(lin, Linearization):
+        raise InputError(f"modes takes a Linearization or a System, got {type(lin).__name__}")
     elif kwargs:
         raise InputError("modes: arguments besides a Linearization are for a System")
     free = lin.free
     nf = free.size
     if nf == 0:
-        raise AnalysisError("modes: there are no free generalized coordinates (every "
-                            "coordinate is specified), so nothing can vibrate")
-    Sm = _first_order(*_free_blocks(lin))
+        raise AnalysisError(_no_fgc("modes", lin))
+    MFF, DFF, KFF = _free_blocks(lin)
+    Sm = _first_order(MFF, DFF, KFF)
     lam, eta = _eigen(Sm)
     # per eigenvalue in plain Python: a few of them, where numpy's per-call cost dominates
     lams = lam.tolist()
-    tol = 1e-9 * max(max(abs(z) for z in lams), 1.0)
+    # |lambda| of round-off size against the system's own rates is zero (neutral): a K_FF
+    # of 1e-14 instead of 0 must not make an unstable or a 1e-7 rad/s mode
+    rate = float(_rate_scale(lin.M, lin.D, lin.K))
+    tol = 1e-9 * max(max(abs(z) for z in lams), rate, 1e-300)
+    zero = 1e-6 * rate
     # one entry per mode: a real eigenvalue, or the upper member of a pair; slowest first
-    keep = sorted((k for k, z in enumerate(lams) if abs(z.imag) <= tol or z.imag > 0),
+    # (a neutral pair of round-off size counts twice, as the double zero it is)
+    keep = sorted((k for k, z in enumerate(lams)
+                   if abs(z.imag) <= tol or z.imag > 0 or abs(z) <= zero),
                   key=lambda k: abs(lams[k]))
     m = len(keep)
     mlam = lam[keep]
@@ -460,7 +491,11 @@ def modes(lin: Linearization | System, **kwargs: Any) -> Modes:
         i = int(np.argmax(np.abs(col)))
         if col[i] != 0:
             shapes[:, r] = col / col[i]
-        if abs(z.imag) > tol:
+        if abs(z) <= zero:
+            shapes[:, r] = shapes[:, r].real
+            tau[r] = math.inf
+            kinds.append("neutral")
+        elif abs(z.imag) > tol:
             freq[r] = abs(z)
             damp[r] = -z.real / abs(z) + 0.0
             damped[r] = z.imag
@@ -470,7 +505,7 @@ def modes(lin: Linearization | System, **kwargs: Any) -> Modes:
             neutral = abs(z.real) <= tol
             tau[r] = math.inf if neutral else -1.0 / z.real
             kinds.append("neutral" if neutral else "overdamped")
-    unstable = mlam.real > tol
+    unstable = (mlam.real > tol) & (np.abs(mlam) > zero)
     joint = lin.phi[:, free] @ shapes
     return Modes(lin, [lin.coords[i] for i in free], lam[np.argsort(np.abs(lam),
                  kind="stable")], mlam, np.array(freq), np.array(damp), np.array(damped),
@@ -478,7 +513,7 @@ def modes(lin: Linearization | System, **kwargs: Any) -> Modes:
 
 
 def modes_along(system: System, q: Any, rates: Any = None, accels: Any = None, *,
-                specified: Any = (), t: Any = 0.0, pivot_tol: float = 1e-10) -> ModeMap:
+                specified: Any = None, t: Any = 0.0, pivot_tol: float = 1e-10) -> ModeMap:
     """Natural frequencies and damping ratios at every posture of ``q`` (13.9).
 
     ``q``: (steps, nq) assembled postures (model units) or a :class:`Trajectory`
@@ -492,10 +527,11 @@ def modes_along(system: System, q: Any, rates: Any = None, accels: Any = None, *
     if not isinstance(system, System):
         raise InputError(f"modes_along takes a compiled System, got {type(system).__name__}")
     nq = system.nq
+    pivot_tol = _positive(pivot_tol, "pivot_tol")
     if isinstance(q, Trajectory):
         tr = q
         qm = tr.q
-        if not specified:
+        if specified is None:
             specified = list(tr.sgc)
         if rates is None and tr.has_rates:
             rates = {n: tr.qd[:, system.var_index(n)] for n in specified}
@@ -503,29 +539,42 @@ def modes_along(system: System, q: Any, rates: Any = None, accels: Any = None, *
         if tr.time is not None and np.isscalar(t) and t == 0.0:
             t = tr.time
     else:
-        qm = np.asarray(q, float)
+        qm = _floats(q, "modes_along: q")
+    specified = _names(specified)
     if qm.ndim != 2 or qm.shape[1] != nq or not np.all(np.isfinite(qm)):
         raise InputError(f"modes_along: q must be (steps, {nq}) finite joint variables, got "
                          f"shape {np.shape(qm)}")
     n = qm.shape[0]
-    T = np.broadcast_to(np.asarray(t, float), (n,)).copy()
+    tv = _floats(t, "modes_along: t")
+    if tv.ndim > 1 or (tv.ndim == 1 and tv.size != n) or not np.all(np.isfinite(tv)):
+        raise InputError(f"modes_along: t must be one time or {n} of them")
+    T = np.broadcast_to(tv, (n,)).copy()
+    if n == 0:
+        return _mode_map(system, qm, [])
     psid = _per_step(system, rates, n, "rates")
     psidd = _per_step(system, accels, n, "accels")
     sgc = np.zeros(nq, bool)
     for key in specified:
         sgc[system.var_index(key)] = True
     if system.laws:
-        lins = []
+        blocks, why = [], []
         for k in range(n):
             r = {system.var_names[c]: psid[k, c] * system.var_scale[c] for c in range(nq)
                  if psid[k, c]}
             a = {system.var_names[c]: psidd[k, c] * system.var_scale[c] for c in range(nq)
                  if psidd[k, c]}
-            lins.append(linearize(system, qm[k], r, a, specified=specified, t=float(T[k]),
-                                  pivot_tol=pivot_tol))
-        return _mode_map(system, qm, [([k], np.stack([lin.M, lin.D, lin.K])[None],
-                                       lin.coords, lin.specified, 0)
-                                      for k, lin in enumerate(lins)])
+            try:
+                lin = linearize(system, qm[k], r, a, specified=specified, t=float(T[k]),
+                                pivot_tol=pivot_tol)
+            except (InputError, AnalysisError) as exc:  # this step only
+                blocks.append(([k], None, [], np.zeros(0, bool), -3))
+                why.append(f"step {k}: {exc}")
+                continue
+            blocks.append(([k], np.stack([lin.M, lin.D, lin.K])[None], lin.coords,
+                           lin.specified, 0))
+        mm = _mode_map(system, qm, blocks)
+        mm.messages[:0] = why
+        return mm
     S = make_state(system, system.to_internal(qm[0]), float(T[0]))
     S.sgc[:] = sgc
     data = make_data(system, nq)
@@ -548,7 +597,7 @@ def modes_along(system: System, q: Any, rates: Any = None, accels: Any = None, *
         groups.setdefault(key, []).append(k)
     blocks = []
     for key, idx in groups.items():
-        if key[0] < 0:
+        if key and key[0] < 0:
             blocks.append((idx, None, [], np.zeros(0, bool), key[0]))
             continue
         cols = np.array(key, np.int64)
@@ -607,7 +656,7 @@ def _mode_map(system: System, qm: np.ndarray, blocks: list) -> ModeMap:
     """Eigenvalues of every step's FGC system, solved together for the steps of one set of
     coordinates; frequencies sorted per step.  ``blocks``: (steps, MDK (steps, 3, f,
     f) model units or None, coordinate names, specified mask, why None: -1 the loops
-    do not close near the posture, -2 it is not assembled)."""
+    do not close near the posture, -2 it is not assembled, -3 said by the caller)."""
     n = qm.shape[0]
     sizes = [-1] * n
     for idx, X, _, spec, fail in blocks:
@@ -616,7 +665,8 @@ def _mode_map(system: System, qm: np.ndarray, blocks: list) -> ModeMap:
     width = max([s for s in sizes if s > 0], default=0)
     lam = np.full((n, 2 * width), np.nan + 0j)
     coords: list[list[str]] = [[] for _ in range(n)]
-    messages = []
+    messages: list[str] = []
+    rate = np.full(n, np.nan)
     for idx, X, names, spec, _ in blocks:
         F = np.flatnonzero(~spec)
         nf = F.size
@@ -624,7 +674,15 @@ def _mode_map(system: System, qm: np.ndarray, blocks: list) -> ModeMap:
             continue
         XF = X[:, :, F][:, :, :, F]  # (steps, 3, nf, nf)
         Sm = np.zeros((len(idx), 2 * nf, 2 * nf))
-        ok = np.ones(len(idx), bool)
+        # a nearly singular M_FF: the test of modes (_check_mass), every step at once
+        mass = float(system.Y.Jb[:, 3, 3].sum()) * min(1.0, system.length_scale ** 2)
+        low = np.linalg.eigvalsh(0.5 * (XF[:, 0] + XF[:, 0].transpose(0, 2, 1)))[:, 0]
+        top = np.maximum(np.abs(np.diagonal(XF[:, 0], axis1=1, axis2=2)).max(axis=1), mass)
+        ok = low > SINGULAR_M * np.maximum(top, 1e-300)
+        for r in np.flatnonzero(~ok):
+            messages.append(f"step {idx[r]}: the mass matrix of the free coordinates is "
+                            "singular (a massless part can move alone); no modes")
+        XF = np.where(ok[:, None, None, None], XF, np.eye(nf))
         try:
             Sm[:, :nf] = -np.linalg.solve(XF[:, 0], np.concatenate([XF[:, 1], XF[:, 2]], 2))
         except np.linalg.LinAlgError:
@@ -644,7 +702,10 @@ def _mode_map(system: System, qm: np.ndarray, blocks: list) -> ModeMap:
         ev = np.linalg.eigvals(Sm[ok])
         order = np.argsort(np.abs(ev), axis=1, kind="stable")
         lam[rows, :2 * nf] = np.take_along_axis(ev, order, axis=1)
+        rate[rows] = _rate_scale(X[ok, 0], X[ok, 1], X[ok, 2])
     for k, sz in enumerate(sizes):
+        if sz == -3:
+            continue  # said by the step-by-step route
         if sz == -2:
             messages.append(f"step {k}: not an assembled posture (the loops miss closing by "
                             "more than 1e-6); no modes")
@@ -652,20 +713,25 @@ def _mode_map(system: System, qm: np.ndarray, blocks: list) -> ModeMap:
             messages.append(f"step {k}: the loops do not close near this posture (singular)")
         elif sz == 0:
             messages.append(f"step {k}: no free generalized coordinates")
-    scale = np.maximum(np.nanmax(np.abs(lam), axis=1, initial=1.0), 1.0)[:, None]
-    tol = 1e-9 * scale
-    osc = lam.imag > tol
-    freq = np.where(osc, np.abs(lam), np.nan)
+    # the tolerances of modes: round-off against the step's own rates (_rate_scale)
     with np.errstate(invalid="ignore", divide="ignore"):
-        damp = np.where(osc, -lam.real / np.abs(lam), np.nan)
-        real = np.abs(lam.imag) <= tol
-        tau = np.where(real & (np.abs(lam.real) > tol), -1.0 / lam.real,
-                       np.where(real, np.inf, np.nan))
+        mag = np.abs(lam)
+        big = np.fmax(np.nanmax(np.where(np.isnan(mag), -np.inf, mag), axis=1,
+                                initial=0.0), np.nan_to_num(rate))[:, None]
+        tol = 1e-9 * np.maximum(big, 1e-300)
+        zero = 1e-6 * np.nan_to_num(rate)[:, None]
+        valid = ~np.isnan(lam)
+        neutral = valid & (mag <= zero)
+        osc = valid & ~neutral & (lam.imag > tol)
+        real = valid & ~neutral & (np.abs(lam.imag) <= tol)
+        freq = np.where(osc, mag, np.nan)
+        damp = np.where(osc, -lam.real / mag, np.nan)
+        tau = np.where(real, -1.0 / lam.real, np.where(neutral, np.inf, np.nan))
     # oscillatory modes first in order of frequency, NaN padding last
     fo = np.argsort(np.where(np.isnan(freq), np.inf, freq), axis=1, kind="stable")[:, :width]
     frequency = np.take_along_axis(freq, fo, axis=1)
     damping = np.take_along_axis(damp, fo, axis=1)
-    unstable = np.any(lam.real > tol, axis=1)
+    unstable = np.any(valid & ~neutral & (lam.real > tol), axis=1)
     return ModeMap(system, qm.copy(), coords, lam, frequency, damping, tau, unstable,
                    messages)
 
@@ -680,11 +746,21 @@ def _input_vector(lin: Linearization, inp: Any) -> tuple[tuple[str, str], np.nda
             known = ", ".join(lin.inputs) or "none"
             raise InputError(f"input ('force', {name!r}): not a force or torque element of "
                              f"the model (known: {known})")
-        return (kind, name), lin.inputs[name], -1
+        g = lin.inputs[name]
+        if not np.any(g):
+            raise InputError(f"input ('force', {name!r}): the element has no direction at "
+                             "this posture (its two direction points coincide) or does no "
+                             "work on any free coordinate")
+        return (kind, name), g, -1
     c = system.var_index(name)
     vname = system.var_names[c]
     if kind == "load":
-        return (kind, vname), lin.phi[c].copy(), -1
+        g = lin.phi[c].copy()
+        if not np.any(g[lin.free]):
+            raise InputError(f"input ('load', {name!r}): {vname} is locked (a specified "
+                             "coordinate, or moved by none of the free ones), so a load on it "
+                             "moves nothing; use ('motion', ...) for a specified coordinate")
+        return (kind, vname), g, -1
     if vname not in lin.coords or not lin.specified[lin.coords.index(vname)]:
         raise InputError(f"input ('motion', {name!r}): {vname} is not a specified "
                          "generalized coordinate (SGC) of this linearization; pass it in "
@@ -706,6 +782,20 @@ def _output_vector(lin: Linearization, out: Any) -> tuple[tuple[str, str], np.nd
                          f"e.g. {name}.x")
     c = system.var_index(name)
     return (kind, system.var_names[c]), lin.phi[c].copy()
+
+
+def _listed(x: Any, what: str) -> list:
+    """One (kind, name) pair or a non-empty list of them."""
+    if isinstance(x, tuple) and len(x) == 2 and isinstance(x[0], str):
+        return [x]
+    try:
+        out = list(x)
+    except TypeError:
+        raise InputError(f"{what} must be a (kind, name) pair or a list of them, got "
+                         f"{x!r}") from None
+    if not out:
+        raise InputError(f"{what}: give at least one (kind, name) pair")
+    return out
 
 
 def _pair(x: Any, kinds: tuple[str, ...], what: str) -> tuple[str, str]:
@@ -754,7 +844,7 @@ def transfer_function(lin: Linearization, input: Any, output: Any) -> TransferFu
     times the position's."""
     (ilab, b, p), (olab, c) = _input_vector(lin, input), _output_vector(lin, output)
     if lin.free.size == 0:
-        raise AnalysisError("transfer_function: there are no free generalized coordinates")
+        raise AnalysisError(_no_fgc("transfer_function", lin))
     A, B, C, D = _realization(lin, b, p, c)
     num, den = _ss2tf(A, B, C, D)
     extra = OUTPUT_KINDS.index(olab[0])
@@ -818,15 +908,13 @@ def frequency_response(lin: Linearization, input: Any, outputs: Any, w: Any
                        ) -> FrequencyResponse:
     """H(j w) (13.20, 13.21) of one input to each output at frequencies ``w`` (rad/s),
     solved at each w from (s^2 M_FF + s D_FF + K_FF) x_F = rhs, not from polynomials."""
-    if isinstance(outputs, tuple) and len(outputs) == 2 and isinstance(outputs[0], str):
-        outputs = [outputs]
     ilab, b, p = _input_vector(lin, input)
-    outs = [_output_vector(lin, o) for o in outputs]
-    wv = np.atleast_1d(np.asarray(w, float))
-    if wv.ndim != 1 or not np.all(np.isfinite(wv)) or np.any(wv < 0):
+    outs = [_output_vector(lin, o) for o in _listed(outputs, "outputs")]
+    wv = np.atleast_1d(_floats(w, "frequency_response: w"))
+    if wv.ndim != 1 or not np.all(np.isfinite(wv)) or np.any(wv < 0) or wv.size == 0:
         raise InputError("frequency_response: w must be finite frequencies >= 0 (rad/s)")
     if lin.free.size == 0:
-        raise AnalysisError("frequency_response: there are no free generalized coordinates")
+        raise AnalysisError(_no_fgc("frequency_response", lin))
     MFF, DFF, KFF = _free_blocks(lin)
     F = lin.free
     H = np.zeros((wv.size, len(outs)), complex)
@@ -841,10 +929,13 @@ def frequency_response(lin: Linearization, input: Any, outputs: Any, w: Any
         try:
             xF = np.linalg.solve(Z, rhs)
         except np.linalg.LinAlgError:
-            xF = np.full(F.size, np.nan + 0j)
-        for o, ((kind, _), c) in enumerate(outs):
-            y = c[F] @ xF + (c[p] * xs if p >= 0 else 0.0)
-            H[k, o] = y * s ** OUTPUT_KINDS.index(kind)
+            raise AnalysisError(f"frequency_response: w = {om:g} rad/s is a pole of the "
+                                "response (a rigid-body mode at 0, or an undamped mode at "
+                                "that frequency); leave it out of w") from None
+        with np.errstate(all="ignore"):  # an extreme w overflows to inf, said by the value
+            for o, ((kind, _), c) in enumerate(outs):
+                y = c[F] @ xF + (c[p] * xs if p >= 0 else 0.0)
+                H[k, o] = y * s ** OUTPUT_KINDS.index(kind)
     return FrequencyResponse(wv, H, ilab, [lab for lab, _ in outs])
 
 
@@ -862,7 +953,7 @@ def state_space(lin: Linearization, inputs: Any, outputs: Any) -> StateSpace:
     if not ins or not outs:
         raise InputError("state_space needs at least one input and one output")
     if lin.free.size == 0:
-        raise AnalysisError("state_space: there are no free generalized coordinates")
+        raise AnalysisError(_no_fgc("state_space", lin))
     motion = [lab for lab, _, p in ins if p >= 0]
     if motion and len(ins) > 1:
         raise InputError("state_space: an SGC motion input shifts the state, so it must be "
@@ -919,14 +1010,13 @@ def mode_motion(modes: Modes, mode: int = 0, amplitude: float = 0.1, steps: int 
     if not isinstance(modes, Modes):
         raise InputError(f"mode_motion takes the Modes of openimp.modes, got "
                          f"{type(modes).__name__}")
-    if not (isinstance(mode, (int, np.integer)) and 0 <= mode < modes.count):
+    if isinstance(mode, bool) or not (isinstance(mode, (int, np.integer))
+                                      and 0 <= mode < modes.count):
         raise InputError(f"mode_motion: mode must be an index 0..{modes.count - 1}, got "
                          f"{mode!r}")
-    if not (isinstance(steps, (int, np.integer)) and steps >= 2):
+    if isinstance(steps, bool) or not (isinstance(steps, (int, np.integer)) and steps >= 2):
         raise InputError(f"mode_motion: steps must be an integer >= 2, got {steps!r}")
-    amp = float(amplitude)
-    if not (math.isfinite(amp) and amp > 0):
-        raise InputError(f"mode_motion: amplitude must be a positive number, got {amplitude!r}")
+    amp = _positive(amplitude, "mode_motion: amplitude")
     lin = modes.linearization
     system = lin.system
     theta = np.linspace(0.0, 2 * math.pi, int(steps) + 1)

@@ -101,7 +101,8 @@ class _Linearized:
         lin = linearize(system, sol.q[k], {n: sol.qd[k, c] for n, c in zip(names, cols)},
                         {n: sol.qdd[k, c] for n, c in zip(names, cols)}, specified=names,
                         t=float(sol.times[k]),
-                        pivot_tol=st.tolerance("SYSTEM")[0] if "SYSTEM" in st.zero else 1e-10)
+                        pivot_tol=st.tolerance("SYSTEM")[0] if "SYSTEM" in st.zero else 1e-10,
+                        close=True)  # a loose ZERO (POSITION): closed again, not refused
         if laws is not None:
             _note_once(self.notes, laws.notes)
             laws.notes.clear()
