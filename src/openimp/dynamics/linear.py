@@ -39,14 +39,12 @@ posture with the set-point elimination kept:
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from openimp._jit import njit
 from openimp.dynamics.eom import generalized, generalized_forces
 from openimp.dynamics.inertia import body_inertias, inertia_wrenches, mass_matrix
-from openimp.dynamics.loads import COINCIDENT, applied_loads, point_motion
+from openimp.dynamics.loads import COINCIDENT, applied_loads, point_motion, unit_between
 from openimp.kinematics.posture import newton
 from openimp.kinematics.rates import accelerations, velocity, velocity_product
 from openimp.mat4 import screw_bracket
@@ -130,21 +128,14 @@ def second_derivatives(KP: tuple, DP: tuple, ZP: tuple, S: tuple, gen: np.ndarra
 @njit(nrt=False, inline="always")
 def _direction_rate(r1: np.ndarray, r2: np.ndarray, v1: np.ndarray, v2: np.ndarray,
                     u: np.ndarray, du: np.ndarray) -> tuple[float, float]:
-    """u = (r1 - r2)/l, its rate du = (I - u u^T)(v1 - v2)/l (9.17, 11.9); returns
-    (l, l') with l' = u.(v1 - v2) (10.11).  l below COINCIDENT: u, du left 0."""
-    ln = 0.0
-    for k in range(3):
-        u[k] = r1[k] - r2[k]
-        ln += u[k] * u[k]
-    ln = math.sqrt(ln)
+    """u = (r1 - r2)/l (:func:`~openimp.dynamics.loads.unit_between`), its rate
+    du = (I - u u^T)(v1 - v2)/l (9.17, 11.9); returns (l, l') with l' = u.(v1 - v2)
+    (10.11).  l below COINCIDENT: u, du are not set (the caller skips)."""
+    ln = unit_between(r1, r2, u)
     if ln < COINCIDENT:
-        for k in range(3):
-            u[k] = 0.0
-            du[k] = 0.0
         return ln, 0.0
     lr = 0.0
     for k in range(3):
-        u[k] /= ln
         lr += u[k] * (v1[k] - v2[k])
     for k in range(3):
         du[k] = (v1[k] - v2[k] - lr * u[k]) / ln

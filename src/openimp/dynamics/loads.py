@@ -50,7 +50,7 @@ def point_motion(KP: tuple, DP: tuple, p: int, out: np.ndarray, vel: np.ndarray)
 
 
 @njit(nrt=False, inline="always")
-def _unit_between(r1: np.ndarray, r2: np.ndarray, u: np.ndarray) -> float:
+def unit_between(r1: np.ndarray, r2: np.ndarray, u: np.ndarray) -> float:
     """u = (r1 - r2) / |r1 - r2| and the length |r1 - r2|; u is left unnormalised when
     the points coincide (length below :data:`COINCIDENT`: the caller skips)."""
     ln = 0.0
@@ -138,7 +138,7 @@ def applied_loads(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple
         if kind == SPRING or kind == DAMPER:
             b1 = point_motion(KP, DP, y.ept[i, 0], r1, v1)
             b2 = point_motion(KP, DP, y.ept[i, 1], r2, v2)
-            ln = _unit_between(r1, r2, u)
+            ln = unit_between(r1, r2, u)
             z.elen[i] = ln
             if ln < COINCIDENT:
                 z.eskip[i] = True
@@ -167,7 +167,7 @@ def applied_loads(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple
         if y.ept[i, first] >= 0:  # direction from one point toward another
             point_motion(KP, DP, y.ept[i, first], r2, v2)
             point_motion(KP, DP, y.ept[i, first + 1], r1, v1)
-            ln = _unit_between(r1, r2, u)
+            ln = unit_between(r1, r2, u)
             z.elen[i] = ln
             if ln < COINCIDENT:
                 z.eskip[i] = True
