@@ -28,14 +28,12 @@ import numpy as np
 
 from openimp._jit import njit
 from openimp.dynamics.inertia import body_inertias, inertia_wrenches, mass_matrix
-from openimp.dynamics.laws import law_values
+from openimp.dynamics.laws import law_values_at
 from openimp.dynamics.loads import applied_loads
 from openimp.errors import AnalysisError, InputError
 from openimp.kinematics.elimination import derivatives, eliminate, jacobian
 from openimp.kinematics.position import position
 from openimp.kinematics.rates import accelerations, body_operators, velocity, velocity_product
-from openimp.kinematics.track import tracker
-from openimp.results import Trajectory
 from openimp.system import (
     System,
     data_views,
@@ -190,11 +188,7 @@ def equations(system: System, q: Any = None, rates: Any = None, *,
         # the laws read the joint rates phi' psi', which the first evaluation sets
         eom(system.KP, data.DP, system.YP, dyn.ZP, S, system.gen, float(pivot_tol), psid,
             (M, cv, Qv))
-        one = Trajectory(system, S.q[None, :].copy(), np.ones(1), np.zeros(1, np.int64),
-                         np.zeros((1, nq), bool), np.zeros(1, np.int64), [],
-                         tracker=tracker(system), sgc=S.sgc.copy())
-        one.set_rates(S.qd[None, :].copy(), np.zeros((1, nq)), np.zeros(1))
-        dyn.v.law[:] = law_values(system, one, np.array([t]))[0]
+        dyn.v.law[:] = law_values_at(system, S.q[None, :], S.qd[None, :], t)[0]
     nf, _, ke, pe = eom(system.KP, data.DP, system.YP, dyn.ZP, S, system.gen,
                         float(pivot_tol), psid, (M, cv, Qv))
     cols = dyn.v.cols[:nf].copy()

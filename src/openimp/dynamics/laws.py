@@ -16,6 +16,8 @@ from typing import Any
 import numpy as np
 
 from openimp.errors import InputError
+from openimp.kinematics.track import tracker
+from openimp.results import Trajectory
 
 
 class LoadState:
@@ -121,3 +123,14 @@ def _element_kinematics(system: Any, trajectory: Any, i: int) -> tuple[np.ndarra
     with np.errstate(invalid="ignore", divide="ignore"):
         rate = np.where(ln > 0, np.einsum("ij,ij->i", d, dv) / np.where(ln > 0, ln, 1.0), 0.0)
     return ln, rate
+
+
+def law_values_at(system: Any, q: np.ndarray, qd: np.ndarray, t: float) -> np.ndarray:
+    """:func:`law_values` at states that are not a solved motion: rows of joint
+    variables q and rates qd (steps x nq, internal units), all at time t."""
+    n = q.shape[0]
+    tr = Trajectory(system, q.copy(), np.ones(n), np.zeros(n, np.int64),
+                    np.zeros((n, system.nq), bool), np.zeros(n, np.int64), [],
+                    tracker=tracker(system))
+    tr.set_rates(qd.copy(), np.zeros_like(qd), np.zeros(n))
+    return law_values(system, tr, np.full(n, float(t)))

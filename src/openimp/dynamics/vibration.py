@@ -33,12 +33,11 @@ from typing import Any
 import numpy as np
 import scipy.linalg
 
-from openimp.dynamics.laws import law_values
+from openimp.dynamics.laws import law_values_at
 from openimp.dynamics.linear import H_MOTION, linearize_kernel, linearize_steps
 from openimp.errors import AnalysisError, InputError
 from openimp.kinematics import sweep
 from openimp.kinematics.posture import newton, sgc_residual
-from openimp.kinematics.track import tracker
 from openimp.results import (
     FrequencyResponse,
     Linearization,
@@ -111,14 +110,16 @@ def linearize(system: System, q: Any = None, rates: Any = None, accels: Any = No
     data, dyn, out, work = _scratch(system)
     out[8][:] = 0.0  # the joint rates at the closed postures: written only when moving
     nlaw = len(system.laws)
-    if nlaw:
-        dyn.views("law")[:] = _laws(system, S.q[None, :], (S.qd * 0)[None, :], t)[0]
     moving = motion_terms and bool(np.any(psid) or np.any(psidd))
     opts = np.array([pivot_tol, CLOSE_TOL, H_MOTION, float(moving), float(nlaw > 0)])
     if nlaw:
-        # the laws at the set point's joint rates (phi' psi'), which the kernel sets
-        _kernel(system, data, dyn, S, opts, psid, psidd, out, work)
-        dyn.views("law")[:] = _laws(system, S.q[None, :], S.qd[None, :], t)[0]
+        # the laws at the set point's joint rates phi' psi': phi' from a first pass
+        # without the differenced terms, which need the laws' values
+        first = opts.copy()
+        first[3:] = 0.0
+        nf = _kernel(system, data, dyn, S, first, psid, psidd, out, work)[0]
+        qd = dyn.views("Gf")[:, :nf] @ psid[dyn.views("cols")[:nf]]
+        dyn.views("law")[:] = law_values_at(system, S.q[None, :], qd[None, :], t)[0]
     nf, rank, status = _kernel(system, data, dyn, S, opts, psid, psidd, out, work)
     residual = float(np.abs(data.views("E")).max(initial=0.0))
     if close and residual > CLOSE_TOL:
@@ -244,16 +245,6 @@ def _per_coordinate(system: System, values: Any, what: str) -> np.ndarray:
     return out
 
 
-def _laws(system: System, q: np.ndarray, qd: np.ndarray, t: float) -> np.ndarray:
-    """Law values (rows of q, qd: internal units) at time t."""
-    n = q.shape[0]
-    tr = Trajectory(system, q.copy(), np.ones(n), np.zeros(n, np.int64),
-                    np.zeros((n, system.nq), bool), np.zeros(n, np.int64), [],
-                    tracker=tracker(system))
-    tr.set_rates(qd.copy(), np.zeros_like(qd), np.zeros(n))
-    return law_values(system, tr, np.full(n, float(t)))
-
-
 def _law_derivatives(system: System, S: Any, G: np.ndarray, cols: np.ndarray,
                      qpl: np.ndarray, qdpl: np.ndarray, Gl: np.ndarray, psid: np.ndarray,
                      t: float, D: np.ndarray, K: np.ndarray, messages: list[str]) -> None:
@@ -275,7 +266,7 @@ def _law_derivatives(system: System, S: Any, G: np.ndarray, cols: np.ndarray,
         for off in (-2.0, -1.0, 1.0, 2.0):
             rows_q.append(S.q.copy())
             rows_qd.append(qd0 + off * s * G[:, k])
-    vals = _laws(system, np.array(rows_q), np.array(rows_qd), t)
+    vals = law_values_at(system, np.array(rows_q), np.array(rows_qd), t)
     w = np.array([1.0, -8.0, 8.0, -1.0])
     nl = Gl.shape[1]
     dpos = (w @ vals[:4 * nf].reshape(nf, 4, -1)) / (12.0 * h)  # (nf, nlaw)
@@ -364,9 +355,7 @@ def _check_mass(lin: Linearization, MFF: np.ndarray) -> None:
     # the scale M_FF is measured against: its own diagonal and the model's mass (a 1 x 1
     # M_FF of round-off size is as singular as a zero one); not the SGCs' block, which a
     # heavy carriage would make dwarf a light part that does move
-    system = lin.system
-    mass = float(system.Y.Jb[:, 3, 3].sum()) * min(1.0, system.length_scale ** 2)
-    top = max(max(abs(x) for x in d), mass, 1e-300)
+    top = max(max(abs(x) for x in d), _mass_scale(lin.system), 1e-300)
     if len(d) == 1:
         if d[0] > SINGULAR_M * top:
             return
@@ -430,12 +419,19 @@ def _eigen(Sm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _first_order(MFF: np.ndarray, DFF: np.ndarray, KFF: np.ndarray) -> np.ndarray:
-    """S = [[-M^-1 D, -M^-1 K], [I, 0]] (14.11), state (v_F, x_F)."""
-    nf = MFF.shape[0]
-    Sm = np.zeros((2 * nf, 2 * nf))
-    Sm[:nf] = -np.linalg.solve(MFF, np.hstack([DFF, KFF]))
-    Sm[nf:, :nf] = np.eye(nf)
+    """S = [[-M^-1 D, -M^-1 K], [I, 0]] (14.11), state (v_F, x_F); batched over leading
+    axes of (..., nf, nf) blocks."""
+    nf = MFF.shape[-1]
+    Sm = np.zeros((*MFF.shape[:-2], 2 * nf, 2 * nf))
+    Sm[..., :nf, :] = -np.linalg.solve(MFF, np.concatenate([DFF, KFF], axis=-1))
+    Sm[..., nf:, :nf] = np.eye(nf)
     return Sm
+
+
+def _mass_scale(system: System) -> float:
+    """The model's mass times min(1, L^2), model units: what a M_FF entry of round-off
+    size is measured against (:func:`_check_mass`)."""
+    return float(system.Y.Jb[:, 3, 3].sum()) * min(1.0, system.length_scale ** 2)
 
 
 def _moving_bodies(lin: Linearization, vF: np.ndarray) -> list[str]:
@@ -691,27 +687,17 @@ def _mode_map(system: System, qm: np.ndarray, blocks: list) -> ModeMap:
         if X is None or nf == 0:
             continue
         XF = X[:, :, F][:, :, :, F]  # (steps, 3, nf, nf)
-        Sm = np.zeros((len(idx), 2 * nf, 2 * nf))
-        # a nearly singular M_FF: the test of modes (_check_mass), every step at once
-        mass = float(system.Y.Jb[:, 3, 3].sum()) * min(1.0, system.length_scale ** 2)
+        # a nearly singular M_FF: the test of modes (_check_mass), every step at once; its
+        # steps get a unit mass so that the others solve together
         low = np.linalg.eigvalsh(0.5 * (XF[:, 0] + XF[:, 0].transpose(0, 2, 1)))[:, 0]
-        top = np.maximum(np.abs(np.diagonal(XF[:, 0], axis1=1, axis2=2)).max(axis=1), mass)
+        top = np.maximum(np.abs(np.diagonal(XF[:, 0], axis1=1, axis2=2)).max(axis=1),
+                         _mass_scale(system))
         ok = low > SINGULAR_M * np.maximum(top, 1e-300)
         for r in np.flatnonzero(~ok):
             messages.append(f"step {idx[r]}: the mass matrix of the free coordinates is "
                             "singular (a massless part can move alone); no modes")
         XF = np.where(ok[:, None, None, None], XF, np.eye(nf))
-        try:
-            Sm[:, :nf] = -np.linalg.solve(XF[:, 0], np.concatenate([XF[:, 1], XF[:, 2]], 2))
-        except np.linalg.LinAlgError:
-            for r in range(len(idx)):
-                try:
-                    Sm[r, :nf] = -np.linalg.solve(XF[r, 0], np.hstack([XF[r, 1], XF[r, 2]]))
-                except np.linalg.LinAlgError:
-                    ok[r] = False
-                    messages.append(f"step {idx[r]}: the mass matrix of the free coordinates "
-                                    "is singular (a massless part can move alone)")
-        Sm[:, nf:, :nf] = np.eye(nf)
+        Sm = _first_order(XF[:, 0], XF[:, 1], XF[:, 2])
         rows = [idx[r] for r in range(len(idx)) if ok[r]]
         for k in rows:
             coords[k] = [names[i] for i in F]
