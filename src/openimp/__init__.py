@@ -19,6 +19,8 @@ from typing import Any
 
 from openimp.dynamics import (
     LoadState,
+    equilibria,
+    equilibrium,
     forces,
     frequency_response,
     linearize,
@@ -32,6 +34,8 @@ from openimp.errors import AnalysisError, InputError, OpenIMPError
 from openimp.kinematics import BatchResult, sweep, sweep_batch
 from openimp.model import Model
 from openimp.results import (
+    Equilibrium,
+    EquilibriumPath,
     Forces,
     FrequencyResponse,
     Linearization,
@@ -58,6 +62,8 @@ def load(path: str, **options: Any) -> Any:
 __all__ = [
     "AnalysisError",
     "BatchResult",
+    "Equilibrium",
+    "EquilibriumPath",
     "Forces",
     "FrequencyResponse",
     "InputError",
@@ -74,6 +80,8 @@ __all__ = [
     "TransferFunction",
     "__version__",
     "compile",
+    "equilibria",
+    "equilibrium",
     "forces",
     "frequency_response",
     "linearize",

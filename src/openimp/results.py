@@ -1007,3 +1007,130 @@ class ModeMap:
             cols[f"damping {k + 1}"] = self.damping[:, k].copy()
         cols["unstable"] = self.unstable.copy()
         return cols
+
+
+@dataclass
+class Equilibrium:
+    """A static equilibrium (book ch 12) and how the search reached it, model units.
+
+    ``q`` (nq,): the posture; ``coords`` the generalized coordinates there and
+    ``specified`` (f,) which are SGCs (held) rather than FGCs (searched);
+    ``converged``, ``status`` (``"balanced"``, ``"step cap"``, ``"no free
+    coordinate"``, ``"failed"``), ``steps`` (search steps), ``evaluations``
+    (residual evaluations, stiffness ones included); ``residual`` (f,) the
+    generalized force left on every coordinate (12.1; on the FGCs the
+    unbalance, at most ``force_tol`` when converged; on the SGCs minus the
+    holding force); ``stiffness`` (f, f) K = -dF/dpsi at rest (12.2);
+    ``eigenvalues`` (nF,), ``eigenvectors`` (nF, nF): of the symmetric part of
+    K_FF (ascending; the columns are mode shapes over the FGCs); ``stability``:
+    ``"stable"``, ``"unstable"``, ``"neutral"`` (or ``"none"`` without FGCs);
+    ``holding``: SGC name -> the force or moment that holds it (along the
+    coordinate, the drive an actuator must supply); ``potential``: energy of
+    gravity and the linear springs; ``history``: (kind, largest |F|, largest
+    |dpsi|) per step, kind ``"newton"``, ``"descent"`` (12.9), ``"modified"``
+    (indefinite K), ``"neutral"`` (12.6 b) or ``"escape"`` (leaving an
+    unstable equilibrium); ``trajectory``: the posture as a one-step
+    :class:`Trajectory`; ``forces``: the force analysis there
+    (:class:`Forces`: joint reactions, element forces, holding forces as
+    drives) or None; ``messages``: what happened, in words.
+    """
+
+    system: Any
+    q: np.ndarray
+    coords: list[str]
+    specified: np.ndarray
+    converged: bool
+    status: str
+    steps: int
+    evaluations: int
+    residual: np.ndarray
+    force_tol: np.ndarray
+    stiffness: np.ndarray
+    eigenvalues: np.ndarray
+    eigenvectors: np.ndarray
+    stability: str
+    holding: dict[str, float]
+    potential: float
+    history: list[tuple[str, float, float]]
+    trajectory: Trajectory
+    messages: list[str] = field(default_factory=list)
+    t: float = 0.0
+    forces: Any = None
+
+    @property
+    def free(self) -> list[str]:
+        """Names of the FGCs."""
+        return [n for n, s in zip(self.coords, self.specified, strict=True) if not s]
+
+    @property
+    def unbalance(self) -> float:
+        """The largest generalized force left on an FGC (model units)."""
+        return float(np.abs(self.residual[~self.specified]).max(initial=0.0))
+
+    def value(self, key: str) -> float:
+        """A joint variable at the equilibrium (model units, radians for angles)."""
+        return float(self.q[self.system.var_index(key)])
+
+    def to_table(self) -> dict[str, Any]:
+        """Columns per generalized coordinate: name, specified, value, residual
+        generalized force, holding force (SGCs; NaN for FGCs)."""
+        idx = [self.system.var_index(n) for n in self.coords]
+        return {"coordinate": list(self.coords), "specified": self.specified.copy(),
+                "value": self.q[idx].copy(), "residual": self.residual.copy(),
+                "holding": np.array([self.holding.get(n, np.nan) for n in self.coords])}
+
+
+@dataclass
+class EquilibriumPath:
+    """Equilibria along a path of SGC values or load times (12.1), model units.
+
+    ``steps``: the :class:`Equilibrium` of every step reached; ``parameter``:
+    the SGC that the path steps (or ``"t"``) and ``values`` its value per
+    step; ``trajectory``: every equilibrium posture (None when none was
+    reached); ``forces``: the force analysis of the path or None;
+    ``turning_points``: messages for every change of stability, jump and
+    holding-force extremum; ``message``: why the path stopped early ("" when
+    it did not).
+    """
+
+    system: Any
+    steps: list[Equilibrium]
+    trajectory: Trajectory | None
+    message: str
+    parameter: str
+    values: np.ndarray
+    turning_points: list[str] = field(default_factory=list)
+    forces: Any = None
+
+    def __len__(self) -> int:
+        return len(self.steps)
+
+    @property
+    def q(self) -> np.ndarray:
+        """(steps, nq) the equilibrium postures, model units."""
+        if not self.steps:
+            return np.zeros((0, self.system.nq))
+        return np.array([e.q for e in self.steps])
+
+    def holding(self, name: str) -> np.ndarray:
+        """(steps,) the holding force of SGC ``name`` along the path."""
+        return np.array([e.holding.get(name, np.nan) for e in self.steps])
+
+    @property
+    def stability(self) -> list[str]:
+        return [e.stability for e in self.steps]
+
+    def to_table(self) -> dict[str, Any]:
+        """Columns: the parameter, every joint variable, the holding force of every SGC,
+        the smallest stiffness eigenvalue, stability, search steps."""
+        out: dict[str, Any] = {self.parameter: np.asarray(self.values).copy()}
+        q = self.q
+        for c, name in enumerate(self.system.var_names):
+            out[name] = q[:, c]
+        for name in (self.steps[0].holding if self.steps else {}):
+            out[f"holding {name}"] = self.holding(name)
+        out["lowest eigenvalue"] = np.array([e.eigenvalues[0] if e.eigenvalues.size
+                                             else np.nan for e in self.steps])
+        out["stability"] = self.stability
+        out["steps"] = np.array([e.steps for e in self.steps])
+        return out

@@ -16,12 +16,16 @@ linearisation, time response) call:
 * :mod:`~openimp.dynamics.linear`: the linearized equations about a set point
   (ch 11), compiled;
 * :mod:`~openimp.dynamics.analysis`: :func:`forces`, the Python entry;
+* :mod:`~openimp.dynamics.statics`, :mod:`~openimp.dynamics.equilibrium`: the
+  static residual and stiffness (compiled) and :func:`equilibrium`,
+  :func:`equilibria` (ch 12);
 * :mod:`~openimp.dynamics.vibration`: :func:`linearize`, :func:`modes`,
   :func:`transfer_function`, :func:`frequency_response`, :func:`state_space`
   (ch 11, 13).
 """
 
 from openimp.dynamics.analysis import forces
+from openimp.dynamics.equilibrium import equilibria, equilibrium
 from openimp.dynamics.laws import LoadState
 from openimp.dynamics.vibration import (
     frequency_response,
@@ -33,6 +37,6 @@ from openimp.dynamics.vibration import (
     transfer_function,
 )
 
-__all__ = ["LoadState", "forces", "frequency_response", "linearize", "mode_motion", "modes",
-           "modes_along",
-           "state_space", "transfer_function"]
+__all__ = ["LoadState", "equilibria", "equilibrium", "forces", "frequency_response",
+           "linearize", "mode_motion", "modes", "modes_along", "state_space",
+           "transfer_function"]

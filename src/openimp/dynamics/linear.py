@@ -242,6 +242,41 @@ def load_rates(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, dF: np.ndar
 
 
 @njit(nrt=False)
+def load_stiffness(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
+                   gen: np.ndarray | None, rank: int, nf: int, P2: np.ndarray,
+                   A2: np.ndarray, cp: np.ndarray, Qp: np.ndarray, dF: np.ndarray,
+                   dfq: np.ndarray, K: np.ndarray) -> None:
+    """K (11.9, 12.2) of the loads at rest into K[:nf, :nf], closed form: -dQ/dpsi =
+    -(sum_b A_bil . Fext_b + W_bi . dFext_b/dpsi_l + sum_h phi''_hil fq_h + phi'_hi
+    dfq_h/dpsi_l), at the eliminated posture (:func:`_setup` done).  P2, A2 receive
+    the second derivatives (:func:`second_derivatives`); cp, Qp (nq,), dF (nb, 6), dfq
+    (nq,) scratch.  Leaves z.Fext, z.fq at rest and S.qd at the last unit rate."""
+    z = dyn_data_views(ZP)
+    nq = S.q.shape[0]
+    nb = A2.shape[0]
+    second_derivatives(KP, DP, ZP, S, gen, rank, nf, P2, A2, cp[:nf])
+    for m in range(nf):
+        cp[m] = 0.0
+    _rate_forces(KP, DP, YP, ZP, S, gen, rank, nf, cp[:nf], Qp, dfq)  # Fext, fq at rest
+    G = z.Gf
+    W = z.W
+    for l in range(nf):
+        for m in range(nf):
+            cp[m] = 0.0
+        cp[l] = 1.0
+        _set_rates(KP, DP, S, gen, rank, G[:, :nf], cp[:nf])
+        load_rates(KP, DP, YP, ZP, S, dF, dfq)
+        for i in range(nf):
+            s = 0.0
+            for b in range(nb):
+                for k in range(6):
+                    s += A2[b, i, l, k] * z.Fext[b, k] + W[b, i, k] * dF[b, k]
+            for c in range(nq):
+                s += P2[c, i, l] * z.fq[c] + G[c, i] * dfq[c]
+            K[i, l] = -s
+
+
+@njit(nrt=False)
 def _setup(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | None,
            ptol: float) -> tuple[int, int]:
     """:func:`~openimp.dynamics.eom.generalized` and the global pseudo-inertias at S.q (one
@@ -312,11 +347,9 @@ def linearize_kernel(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
     """
     M, D, K, F, P2, A2, Gl, qpl, qdpl = out
     u, a, zero, cv, Qv, cp, Qp, r, dF, dfq, q0, sgc0, Mw = work
-    Km = model_views(KP)
     z = dyn_data_views(ZP)
     ptol = opts[0]
     nq = S.q.shape[0]
-    nb = Km.order.shape[0]
     rank, nf = _setup(KP, DP, YP, ZP, S, gen, ptol)
     cols = z.cols
     for j in range(nf):
@@ -352,24 +385,8 @@ def linearize_kernel(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
         for i in range(nf):
             D[i, k] = (r[i] - (cp[i] - Qp[i])) / (2.0 * step)
     # K (11.9) of the loads at rest, closed form
-    second_derivatives(KP, DP, ZP, S, gen, rank, nf, P2, A2, cp[:nf])
-    _rate_forces(KP, DP, YP, ZP, S, gen, rank, nf, zero[:nf], cp, Qp)  # Fext, fq at rest
+    load_stiffness(KP, DP, YP, ZP, S, gen, rank, nf, P2, A2, cp, Qp, dF, dfq, K)
     G = z.Gf
-    W = z.W
-    for l in range(nf):
-        for m in range(nf):
-            cp[m] = 0.0
-        cp[l] = 1.0
-        _set_rates(KP, DP, S, gen, rank, G[:, :nf], cp[:nf])
-        load_rates(KP, DP, YP, ZP, S, dF, dfq)
-        for i in range(nf):
-            s = 0.0
-            for b in range(nb):
-                for k in range(6):
-                    s += A2[b, i, l, k] * z.Fext[b, k] + W[b, i, k] * dF[b, k]
-            for c in range(nq):
-                s += P2[c, i, l] * z.fq[c] + G[c, i] * dfq[c]
-            K[i, l] = -s
     status = 0
     moving = opts[3] != 0.0
     keep = opts[4] != 0.0
