@@ -1086,8 +1086,9 @@ class EquilibriumPath:
 
     ``steps``: the :class:`Equilibrium` of every step reached; ``parameter``:
     the SGC that the path steps (or ``"t"``) and ``values`` its value per
-    step; ``trajectory``: every equilibrium posture (None when none was
-    reached); ``forces``: the force analysis of the path or None;
+    step; ``trajectory``: every balanced equilibrium posture (None when none
+    was; a step that failed is the last of ``steps`` but not in it);
+    ``forces``: the force analysis of the path or None;
     ``turning_points``: messages for every change of stability, jump and
     holding-force extremum; ``message``: why the path stopped early ("" when
     it did not).

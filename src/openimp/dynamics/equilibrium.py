@@ -169,6 +169,7 @@ class _Search:
         self.keep = np.zeros(nq, np.bool_)
         self.evaluations = 0
         self.stiffness_evaluations = 0
+        self.iterations = 0  # of the last closure
         self.t = 0.0
 
     # one posture -------------------------------------------------------------
@@ -208,7 +209,7 @@ class _Search:
             for s in (H_LAW, -H_LAW):
                 S.q[:] = q0 + s * G[:, j]
                 if close_posture(self.system.KP, self.data.DP, S, self.system.gen, cols,
-                                 CLOSE_TOL, self.opts.pivot_tol, 30, self.keep) != 0:
+                                 CLOSE_TOL, self.opts.pivot_tol, 30, self.keep)[0] != 0:
                     S.q[:] = q0
                     raise AnalysisError("equilibrium: the loops do not close within "
                                         f"{H_LAW:g} of the posture along "
@@ -233,8 +234,11 @@ class _Search:
         return K
 
     def close(self, S: State, cols: np.ndarray) -> bool:
-        return close_posture(self.system.KP, self.data.DP, S, self.system.gen, cols,
-                             CLOSE_TOL, self.opts.pivot_tol, 30, self.keep) == 0
+        """Close the loops holding ``cols`` (and the SGCs); False when they do not close."""
+        status, self.iterations = close_posture(self.system.KP, self.data.DP, S,
+                                                self.system.gen, cols, CLOSE_TOL,
+                                                self.opts.pivot_tol, 30, self.keep)
+        return status == 0
 
     # the search ---------------------------------------------------------------
     def tolerance(self, cols: np.ndarray, scale: float) -> np.ndarray:
@@ -270,7 +274,9 @@ class _Search:
             eps = o.neutral_tol * max(kmax, scale, 1e-300)
             dpsi, neutral, reduced, C = full_pivot_solve(KFF, FF, eps)
             balanced = bool(np.all(np.abs(FF) <= ftol))
-            if balanced and (o.step_tol is None or np.abs(dpsi).max() <= o.step_tol):
+            small = o.step_tol is None or bool(
+                np.all(np.abs(dpsi * self.system.var_scale[cols[free]]) <= o.step_tol))
+            if balanced and small:
                 lam, vec = _sym_eig(KFF)
                 if o.seek_stable and lam[0] < -eps and escapes < 4 and steps < o.max_steps:
                     # an unstable equilibrium: leave it along its mode (energy falls
@@ -405,9 +411,10 @@ def equilibrium(system: System, q: Any = None, *, specified: Any = (), t: float 
     Convergence: every generalized force left on the FGCs is at most
     ``force_tol`` (model units: force, or moment for an angle), by default
     ``rtol`` times the size of the loads (the sum of the magnitudes of every
-    body wrench and joint load, internal units); with ``step_tol`` (internal
-    units, IMP's ZERO (EQUILIB)) the next Newton correction must also be
-    below it.  ``max_steps``: the cap on search steps (IMP's 25);
+    body wrench and joint load, internal units); with ``step_tol`` (model
+    units: radians or lengths; IMP's ZERO (EQUILIB)) the next Newton
+    correction of every FGC must also be below it.  ``max_steps``: the cap
+    on search steps (IMP's 25);
     ``step_limit``: the largest step (12.4; radians or internal lengths, the
     whole vector scaled); ``neutral_tol``: a pivot of K_FF (or an eigenvalue)
     below this fraction of the largest stiffness and the loads' size is
@@ -526,11 +533,11 @@ def _result(system: System, search: _Search, S: State, raw: dict[str, Any], want
                         "every posture is an equilibrium; the start posture is returned")
     holding = {n: -float(F[i]) for i, n in enumerate(names) if spec[i]}
     q_int = S.q.copy()
-    quality = 1.0
+    quality = _quality(search, S)
     tr = Trajectory(system, q_int[None, :].copy(), np.array([quality]),
                     np.array([raw["rank"]], np.int64),
                     np.isin(np.arange(system.nq), cols[free])[None, :],
-                    np.array([raw["steps"]], np.int64), [n for n, s in zip(names, spec,
+                    np.array([search.iterations], np.int64), [n for n, s in zip(names, spec,
                                                                            strict=True) if s],
                     tracker=tracker(system), sgc=S.sgc.copy())
     tr.rank_ref, tr.quality_ref = raw["rank"], 1.0
@@ -548,6 +555,13 @@ def _result(system: System, search: _Search, S: State, raw: dict[str, Any], want
 
         eq.forces = _forces(tr, pivot_tol=opts.pivot_tol)
     return eq
+
+
+def _quality(search: _Search, S: State) -> float:
+    """The quality index of the elimination at S.q with its SGCs (6.5.3)."""
+    from openimp.kinematics.posture import eliminate_at
+
+    return float(eliminate_at(search.system, search.data, S, search.opts.pivot_tol)[1])
 
 
 def _mode_text(names: list[str], v: np.ndarray) -> str:
@@ -637,9 +651,10 @@ def equilibria(system: System, path: Any = None, *, times: Any = None, q: Any = 
             break
         prev_tangent = _tangent(system, eq, cols) if cols else None
     traj = None
-    if steps:
-        traj = Trajectory.concatenate([e.trajectory for e in steps])
-        traj.time = np.array([e.t for e in steps])
+    good = [e for e in steps if e.converged]
+    if good:
+        traj = Trajectory.concatenate([e.trajectory for e in good])
+        traj.time = np.array([e.t for e in good])
     res = EquilibriumPath(system=system, steps=steps, trajectory=traj, message=message,
                           parameter=names[0] if names else "t",
                           values=(vals[0][:len(steps)] * system.var_scale[cols[0]]

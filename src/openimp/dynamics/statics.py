@@ -59,17 +59,17 @@ def static_point(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
 
 @njit(nrt=False)
 def close_posture(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, cols: np.ndarray,
-                  tol: float, ptol: float, maxit: int, keep: np.ndarray) -> int:
+                  tol: float, ptol: float, maxit: int, keep: np.ndarray) -> tuple[int, int]:
     """Close the loops at S.q holding the generalized coordinates ``cols`` (and S.sgc)
     where they are (Newton, ch 6); returns the status of
-    :func:`~openimp.kinematics.posture.newton` (0: closed).  ``keep`` (nq,) bool
-    scratch."""
+    :func:`~openimp.kinematics.posture.newton` (0: closed) and its iterations.
+    ``keep`` (nq,) bool scratch."""
     nq = S.q.shape[0]
     for c in range(nq):
         keep[c] = S.sgc[c]
     for c in cols:
         S.sgc[c] = True
-    status = newton(KP, DP, S, gen, tol, ptol, maxit, False)[0]
+    res = newton(KP, DP, S, gen, tol, ptol, maxit, False)
     for c in range(nq):
         S.sgc[c] = keep[c]
-    return status
+    return res[0], res[1]

@@ -1,6 +1,7 @@
-"""The force analysis of a kinematic run, in IMP's conventions (reference §2.3, §2.4).
+"""The force analysis of a solved run, in IMP's conventions (reference §2.3, §2.4).
 
-After the kinematic runner has solved the motion, :func:`compute` calls
+After the runner has solved the motion (or, in static mode, the equilibria,
+whose FGCs are held there with the residual as their load), :func:`compute` calls
 :func:`openimp.forces` on it (inertia loads from the input velocities and
 accelerations, gravity, springs, dampers, applied forces and torques; every
 SGC and every held FGC carries the drive load it needs) and converts the
@@ -14,6 +15,10 @@ results to what IMP lists in **kinematic mode** (settled in reference §2.4):
   three moments are the projections on its x-y'-z'' Euler axes (u of the
   first link, the line of nodes, w' of the second).  PRINT FORCE uses the
   same axes as LIST, STORE and PLOT;
+* in **static and dynamic mode** the other way round: the load of the
+  **second-named** link on the **first**, on the axes of the joint frame on
+  the **first** link, moments about that frame's origin (SPHERE moments on
+  the same Euler axes);
 * springs and dampers: the axial force, tension positive;
 * a component that the constraints leave statically indeterminate (the
   compatibility test of book 17.18 against ZERO (INDETERM)) is NaN: ``????``
@@ -101,20 +106,25 @@ def _unit(v: np.ndarray) -> np.ndarray:
 
 
 def joint_load(prep: Prepared, sol: Solution, forces: Any, name: str) -> np.ndarray:
-    """(steps x 6) the load of joint ``name`` in IMP's kinematic-mode convention (see the
-    module docstring) from :class:`openimp.results.Forces`."""
+    """(steps x 6) the load of joint ``name`` in IMP's convention of the run's mode (see
+    the module docstring) from :class:`openimp.results.Forces`."""
     model = prep.built.model
     ij, _jd, L1, L2 = prep.built.joints[name]
     mj = model.joints[name]
-    # IMP's joint frame on the second link
+    # IMP's joint frames on the first and the second link
+    B1 = sol.traj.posture(mj.body1) @ L1
     B2 = sol.traj.posture(mj.body2) @ L2
     axes = None
     if ij.keyword == "SPHERE":  # moments on the Euler axes u, the line of nodes, w'
-        e1 = (sol.traj.posture(mj.body1) @ L1)[:, :3, 0]
+        e1 = B1[:, :3, 0]
         e3 = B2[:, :3, 2]
         e2 = _unit(np.cross(e3, e1))
         axes = np.stack([e1, e2, e3], axis=1)
-    return forces.in_frame(name, B2, axes)
+    if prep.spec.mode == "kinematic":
+        return forces.in_frame(name, B2, axes)
+    # static and dynamic mode: the second link's load on the first, on the first link's
+    # joint axes, moments about that frame's origin
+    return -forces.in_frame(name, B1, axes)
 
 
 def compute(prep: Prepared, sol: Solution, notes: list[str]) -> ForceResults:

@@ -24,7 +24,7 @@ from openimp.errors import InputError, OutputError
 from openimp.files import OutputFolder, printable, slug
 from openimp.imp.interp import DEFAULT_TITLE, RunSpec, State, Where, build_model
 from openimp.imp.listing import banner, format_listing, format_store, step_text
-from openimp.imp.run import kinematic, vibration
+from openimp.imp.run import kinematic, static, vibration
 from openimp.imp.run.forces import safe_compute, wants_forces
 from openimp.imp.run.prepare import (
     Prepared,
@@ -47,7 +47,8 @@ from openimp.imp.run.solution import Solution
 from openimp.results import Run, Table
 
 #: the runner of each mode: (prepared run, output times, start, notes, progress) -> Solution
-SOLVERS: dict[str, Callable[..., Solution]] = {"kinematic": kinematic.solve}
+SOLVERS: dict[str, Callable[..., Solution]] = {"kinematic": kinematic.solve,
+                                                "static": static.solve}
 
 
 @dataclass

@@ -399,7 +399,8 @@ def validate(spec: RunSpec) -> Prepared:
     built = build_model(state, spec.where)
     system = compile_built(built, state, spec.where)
     items, unsupported, skipped = _request_items(state, built)
-    drivers = _drivers(state, built, system) if spec.mode == "kinematic" else []
+    posed = spec.mode in ("kinematic", "static")
+    drivers = _drivers(state, built, system) if posed else []
     freedom = (0, 0)
     if drivers:
         cols = np.array([d.column for d in drivers], np.int64)
@@ -411,12 +412,12 @@ def validate(spec: RunSpec) -> Prepared:
             where = drivers[-1].inp.where
             raise InputError(f"EXECUTE: {exc} (the input motions are given by DATA POSITION / "
                              "DATA MOTION statements)", where) from None
-    elif spec.mode == "kinematic":
+    elif posed:
         freedom = _freedom(system, np.zeros(0, np.int64), state.tolerance("SYSTEM")[0])
-    if spec.mode == "kinematic":
+    if posed:
         dynamics_items(state, built, system, drivers, freedom, items, skipped)
     prep = Prepared(spec, built, system, drivers, items, unsupported, skipped)
-    if spec.mode == "kinematic":
+    if posed:
         _check_size(prep)
     spec._prepared = prep  # type: ignore[attr-defined]
     return prep
@@ -444,13 +445,12 @@ def not_produced(spec: RunSpec) -> tuple[str | None, list[str]]:
     :func:`validate` does.
     """
     state = spec.state
-    if spec.mode != "kinematic":
+    if spec.mode == "dynamic":
         fw = state.find_where
-        what = "static equilibrium" if spec.mode == "static" else "dynamic (time response)"
-        return (f"{spec.where[0]}:{spec.where[1]}: EXECUTE in {spec.mode} mode "
+        return (f"{spec.where[0]}:{spec.where[1]}: EXECUTE in dynamic mode "
                 f"(FIND {state.find}" + (f" at {fw[0]}:{fw[1]}" if fw else "")
-                + f"): {what} analysis is not built yet in openimp; this run "
-                "produces no results"), []
+                + "): dynamic (time response) analysis is not built yet in openimp; this "
+                "run produces no results"), []
     prep = validate(spec)
     return None, list(prep.skipped)
 

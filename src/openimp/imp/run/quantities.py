@@ -327,6 +327,8 @@ def print_step(prep: Prepared, sol: Solution, k: int, tables: dict[tuple[str, st
     """The PRINT lines of step ``k``."""
     out: list[str] = []
     heading = [it for it in items if it.kind == "heading"]
+    if not heading and sol.search is not None and k < len(sol.search) and sol.search[k]:
+        out.append(sol.search[k])
     if heading:
         out.append("The Generalized Coordinates are:")
         out.append("Joint Set by Position Velocity Acceleration")
@@ -352,6 +354,8 @@ def print_step(prep: Prepared, sol: Solution, k: int, tables: dict[tuple[str, st
                 kind = ij.var_kinds[i]
             out.append(f"{joint} {idx} imp {_f4(math.degrees(pos) if kind == 'angle' else pos)}"
                        f" {_f3(vel)} {_f3(acc)}")
+        if sol.search is not None and k < len(sol.search) and sol.search[k]:
+            out.append(sol.search[k])
         out.append(f"Degree of freedom = {int(sol.mobility[k])}. Quality index = "
                    f"{sol.quality[k]:.2e} with {int(sol.iterations[k])} iterations.")
     for q, title in (("POSITION", "Position Results:"), ("VELOCITY", "Velocity Results:"),

@@ -38,6 +38,10 @@ class Solution:
     #: the force analysis of the run (:class:`~openimp.imp.run.forces.ForceResults`),
     #: when a request needs it
     forces: Any = None
+    #: static mode: IMP's search line of every step ("Equilibrium found after N search
+    #: steps.") and the :class:`~openimp.results.EquilibriumPath`
+    search: list[str] | None = None
+    equilibria: Any = None
 
     @classmethod
     def of(cls, parts: Sequence[Trajectory], empty: Trajectory, times: np.ndarray,

@@ -1,0 +1,109 @@
+"""The static runner: equilibrium postures (FIND EQUILIB, book ch 12).
+
+For every EXECUTE in static mode:
+
+1. the SGC values at every output step come from DATA POSITION and DATA
+   MOTION as in kinematic mode (:class:`~openimp.imp.run.kinematic.Motions`;
+   no velocities: DATA VELOCITY and ACCEL are refused before FIND EQUILIB);
+2. every step's equilibrium is searched from the last one
+   (:func:`openimp.dynamics.equilibrium.equilibria`) with IMP's ZERO (EQUILIB)
+   step cap and, when the deck sets it, its step tolerance; the force
+   tolerance is openimp's (relative 1e-10 of the loads), so that a reported
+   equilibrium is balanced, not merely "steps got small";
+3. the run's trajectory is the equilibria; the force analysis then follows
+   with the FGCs held there (their holding load is the residual, below the
+   tolerance) in IMP's static-mode convention (:mod:`~openimp.imp.run.forces`).
+
+A step whose equilibrium is not found (the step cap, or a posture that
+cannot be assembled) stops the run there with IMP's message; the steps
+before it are kept.  Element data given by VALUE names are evaluated with
+the time of the step only while searching (a VALUE that reads the posture
+is undefined there and 0 is used, with a message).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from openimp.dynamics.equilibrium import MAX_STEPS, equilibria
+from openimp.errors import InputError
+from openimp.imp.run.kinematic import Motions, reads_model
+from openimp.imp.run.prepare import Prepared
+from openimp.imp.run.solution import Solution
+from openimp.kinematics.track import tracker
+from openimp.results import Trajectory
+
+
+def _time_only(t: float) -> Callable[[str, str | None, int], float]:
+    def resolve(kind: str, name: str | None, comp: int) -> float:
+        return t if kind == "TIME" else float("nan")
+
+    return resolve
+
+
+def solve(prep: Prepared, times: np.ndarray, start: np.ndarray | None,
+          notes: list[str], progress: Callable[[int, int], None] | None = None) -> Solution:
+    """Solve every step of a static run (see the module docstring)."""
+    system = prep.system
+    st = prep.spec.state
+    drivers = prep.drivers
+    empty = Trajectory.empty(system, tracker(system))
+    n = len(times)
+    if reads_model(st, drivers):
+        notes.append("A DATA MOTION VALUE reads model quantities: in static mode they are "
+                     "undefined before the equilibrium is found, and 0 is used.")
+    motions = Motions(prep, times, notes)
+    motions.fill(0, n, None)
+    if motions.halt is not None:
+        n = motions.halt.step
+    opts: dict[str, Any] = {"forces": False}
+    tol, cap = st.tolerance("EQUILIB")
+    opts["max_steps"] = int(cap or MAX_STEPS)
+    if "EQUILIB" in st.zero:
+        opts["step_tol"] = float(tol)
+    if "SYSTEM" in st.zero:
+        opts["pivot_tol"] = float(st.tolerance("SYSTEM")[0])
+    laws = prep.built.dyn.laws
+    if laws is not None:
+        laws.times = np.asarray(times, float)
+        laws.resolve_at = lambda k: _time_only(float(times[min(k, len(times) - 1)]))
+    path = {system.var_names[d.column]: motions.p[:n, j] for j, d in enumerate(drivers)}
+    if n == 0:
+        sol = Solution(empty, times[:0], motions.halt.text if motions.halt else "")
+        return sol
+    try:
+        res = equilibria(system, path or None, times=np.asarray(times[:n], float),
+                         q=start, **opts)
+    except InputError as exc:
+        return Solution(empty, times[:0], f"the run stopped at step 0: {exc}")
+    except KeyboardInterrupt:
+        sol = Solution(empty, times[:0], "interrupted by the user (Ctrl-C)")
+        sol.interrupted = True
+        return sol
+    if progress is not None:
+        progress(len(res), n)
+    sol = Solution(res.trajectory if res.trajectory is not None else empty,
+                   np.asarray(times[:len(res)], float), _stop_text(res, times))
+    sol.search = [e.messages[0] if e.status == "balanced" else "" for e in res.steps]
+    sol.equilibria = res
+    for k, e in enumerate(res.steps):
+        for m in e.messages[1:]:
+            notes.append(f"step {k}: {m}")
+    for m in res.turning_points:
+        notes.append(f"Turning point: {m}")
+    if motions.halt is not None and not sol.message:
+        sol.stop = motions.halt.text
+    return sol
+
+
+def _stop_text(res: Any, times: np.ndarray) -> str:
+    """Why the path stopped early, with what was kept ("" when it did not)."""
+    if not res.message:
+        return ""
+    k = len(res.steps) - (0 if not res.steps or res.steps[-1].converged else 1)
+    kept = (f"; the {k} equilibrium position(s) before it are listed" if k > 0 else
+            "; no equilibrium was found")
+    return f"{res.message}{kept}"
