@@ -209,17 +209,17 @@ def test_analysis_failure_exit_1_partial_output(tmp_path) -> None:
 def test_unbuilt_analyses_exit_1_but_everything_else_runs(tmp_path) -> None:
     deck = tmp_path / "modes.imp"
     deck.write_text(FOURBAR_HEAD + "DATA POSITION (A) = 0, 30, 2\nLIST POSITION (D)\n"
-                    "LIST FORCE (A)\nEXECUTE\nDELETE INPUT ALL\nFIND EQUILIB\n"
-                    "DATA POSITION (A) = 0\nEXECUTE\nDELETE EQUILIB\n"
+                    "LIST FORCE (A)\nEXECUTE\nDELETE INPUT ALL\nFIND DYNAMICS\n"
+                    "DATA TIME = 1, 0.1, 0.1\nEXECUTE\nDELETE DYNAMICS\n"
                     "DATA POSITION (A) = 0, 30, 2\nEXECUTE\nEND\n")
     js = tmp_path / "o.json"
     p = openimp("run", deck, "--json", js)
     no_traceback(p)
     assert p.returncode == 1
     assert "LIST FORCE is not produced" not in p.stderr  # kinematic force analysis is built
-    assert "static equilibrium analysis is not built yet" in p.stderr
+    assert "dynamic (time response) analysis is not built yet" in p.stderr
     runs = json.loads(js.read_text())["runs"]
-    assert [r["mode"] for r in runs] == ["kinematic", "static", "kinematic"]
+    assert [r["mode"] for r in runs] == ["kinematic", "dynamic", "kinematic"]
     assert len(runs[0]["tables"]) == 2 and "unsupported" not in runs[0]
     assert runs[0]["tables"][1]["request"] == "LIST FORCE"
     assert runs[1]["tables"] == [] and "failure" in runs[1]

@@ -18,7 +18,7 @@ README = Path(__file__).parent.parent / "README.md"
 
 def test_readme_python_runs_and_balances_power() -> None:
     code = re.findall(r"^```python\n(.*?)^```$", README.read_text(), flags=re.S | re.M)
-    assert len(code) == 2
+    assert len(code) == 3
     ns: dict = {"__name__": "readme"}
     for block in code:
         exec(compile(block, str(README), "exec"), ns)  # the README itself
@@ -29,3 +29,14 @@ def test_readme_python_runs_and_balances_power() -> None:
     assert np.abs(balance).max() < 1e-3 * np.abs(f.power["drive"]).max()
     # the planar linkage of spatial revolutes: out-of-plane components indeterminate
     assert np.array_equal(f.determinate("B")[0], [True, True, False, False, False, True])
+    # the equilibrium block: balanced, and the crank's virtual power of gravity and the
+    # spring vanishes there (a check by finite differences of the potential energy)
+    eq = ns["eq"]
+    assert eq.converged and eq.unbalance <= eq.force_tol.max()
+    sy = eq.system
+    a = eq.value("A")
+    V = []
+    for h in (-1e-5, 1e-5):
+        tr = ns["openimp"].sweep(sy, {"A": [a + h]}, start=eq.q)
+        V.append(ns["openimp"].forces(tr).potential[0])
+    assert abs(V[1] - V[0]) / 2e-5 < 1e-6 * max(1.0, abs(eq.potential))

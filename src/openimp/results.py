@@ -1102,6 +1102,8 @@ class EquilibriumPath:
     values: np.ndarray
     turning_points: list[str] = field(default_factory=list)
     forces: Any = None
+    #: the user pressed Ctrl-C (``message`` says at which step)
+    interrupted: bool = False
 
     def __len__(self) -> int:
         return len(self.steps)

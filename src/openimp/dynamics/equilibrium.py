@@ -311,7 +311,6 @@ class _Search:
                 step = 0.5 * step
             if not ok:
                 S.q[:] = q0
-                self.evaluate(S, False)
                 status = "failed"
                 message = ("the loops cannot be closed (or the loads do work against every "
                            "step) near this posture along the search direction; the search "
@@ -319,7 +318,8 @@ class _Search:
                 break
             steps += 1
             history.append((kind, float(np.abs(FF).max()), float(np.abs(step).max())))
-        cols, F, K, pe, scale, rank = self.evaluate(S, True)
+        # the last evaluation is at S.q (a failed step restored the posture it started
+        # from, whose F and K these are)
         return dict(cols=cols, F=F, K=K, pe=pe, scale=scale, rank=rank, status=status,
                     steps=steps, history=history, neutral_steps=neutral_steps,
                     escapes=escapes, message=message,
@@ -581,7 +581,9 @@ def equilibria(system: System, path: Any = None, *, times: Any = None, q: Any = 
     values in ``q``); ``times``: (steps,) the time of every step, which the
     load laws read (a load stepped through values is a law of t).  At least
     one of the two sets the number of steps.  ``options``: those of
-    :func:`equilibrium` (``forces`` runs one force analysis of the whole path).
+    :func:`equilibrium` (``forces`` runs one force analysis of the whole path),
+    and ``progress``: a callable (steps done, steps) called after every step.
+    Ctrl-C ends the path with the steps done (``message`` says so).
 
     Every step's :class:`~openimp.results.Equilibrium` is kept; a step that is
     not balanced ends the path there with its message (the steps before it are
@@ -592,6 +594,7 @@ def equilibria(system: System, path: Any = None, *, times: Any = None, q: Any = 
     limit load under which a dead load would snap the mechanism over).
     """
     want_forces = bool(options.pop("forces", True))
+    progress = options.pop("progress", None)
     opts = _options(options.pop("force_tol", None), options.pop("rtol", RTOL),
                     options.pop("step_tol", None), options.pop("max_steps", MAX_STEPS),
                     options.pop("step_limit", STEP_LIMIT), options.pop("neutral_tol", NEUTRAL),
@@ -630,21 +633,20 @@ def equilibria(system: System, path: Any = None, *, times: Any = None, q: Any = 
     steps: list[Equilibrium] = []
     message = ""
     prev_tangent = None
+    interrupted = False
     for k in range(n):
-        search.t = float(tt[k]) if tt is not None else 0.0
-        S.t[0] = search.t
-        for c, v in zip(cols, vals, strict=True):
-            S.q[c] = v[k]
-        if prev_tangent is not None and cols:
-            S.q[:] += prev_tangent @ np.array([v[k] - v[k - 1] for v in vals])
         try:
-            _assemble(search, S)
+            eq = _path_step(system, search, S, k, tt, cols, vals, prev_tangent, opts)
         except InputError as exc:
             message = f"step {k}: {exc}"
             break
-        raw = search.run(S)
-        eq = _result(system, search, S, raw, False, opts)
+        except KeyboardInterrupt:
+            message = f"step {k}: interrupted by the user (Ctrl-C)"
+            interrupted = True
+            break
         steps.append(eq)
+        if progress is not None:
+            progress(k + 1, n)
         if not eq.converged:
             message = f"step {k}: " + "; ".join(m for m in eq.messages
                                                  if not m.startswith("Equilibrium found"))
@@ -661,11 +663,28 @@ def equilibria(system: System, path: Any = None, *, times: Any = None, q: Any = 
                                   if names else tt[:len(steps)] if tt is not None
                                   else np.zeros(0)))
     res.turning_points = _turning_points(res)
+    res.interrupted = interrupted
     if want_forces and traj is not None:
         from openimp.dynamics.analysis import forces as _forces
 
         res.forces = _forces(traj, pivot_tol=opts.pivot_tol)
     return res
+
+
+def _path_step(system: System, search: _Search, S: State, k: int, tt: np.ndarray | None,
+               cols: list[int], vals: list[np.ndarray], tangent: np.ndarray | None,
+               opts: Options) -> Equilibrium:
+    """The equilibrium of path step ``k``, searched from S (the last equilibrium) with the
+    SGCs moved to their values there and the FGCs predicted along ``tangent``."""
+    search.t = float(tt[k]) if tt is not None else 0.0
+    S.t[0] = search.t
+    if tangent is not None and k > 0:
+        S.q[:] += tangent @ np.array([v[k] - v[k - 1] for v in vals])
+    for c, v in zip(cols, vals, strict=True):
+        S.q[c] = v[k]
+    _assemble(search, S)
+    raw = search.run(S)
+    return _result(system, search, S, raw, False, opts)
 
 
 def _tangent(system: System, eq: Equilibrium, cols: list[int]) -> np.ndarray | None:

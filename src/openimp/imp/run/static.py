@@ -76,22 +76,22 @@ def solve(prep: Prepared, times: np.ndarray, start: np.ndarray | None,
         return sol
     try:
         res = equilibria(system, path or None, times=np.asarray(times[:n], float),
-                         q=start, **opts)
+                         q=start, progress=progress, **opts)
     except InputError as exc:
         return Solution(empty, times[:0], f"the run stopped at step 0: {exc}")
-    except KeyboardInterrupt:
-        sol = Solution(empty, times[:0], "interrupted by the user (Ctrl-C)")
-        sol.interrupted = True
-        return sol
-    if progress is not None:
-        progress(len(res), n)
+    good = res.trajectory.nsteps if res.trajectory is not None else 0
     sol = Solution(res.trajectory if res.trajectory is not None else empty,
-                   np.asarray(times[:len(res)], float), _stop_text(res, times))
+                   np.asarray(times[:good], float), _stop_text(res, times))
+    sol.interrupted = res.interrupted
     sol.search = [e.messages[0] if e.status == "balanced" else "" for e in res.steps]
     sol.equilibria = res
     for k, e in enumerate(res.steps):
-        for m in e.messages[1:]:
-            notes.append(f"step {k}: {m}")
+        if not e.converged:
+            continue  # its messages are the run's stop message
+        for m in e.messages[1 if e.status == "balanced" else 0:]:
+            note = f"step {k}: {m}" if n > 1 else m
+            if note not in notes:
+                notes.append(note)
     for m in res.turning_points:
         notes.append(f"Turning point: {m}")
     if motions.halt is not None and not sol.message:
