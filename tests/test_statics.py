@@ -30,7 +30,6 @@ Tolerances are stated at each check: postures 1e-9 (1e-7 against scipy's
 minimizers), eigenvalues and holding forces 1e-8 relative (1e-6 where the stiffness
 of a load law is differenced), Newton-Euler balance 1e-9 of the body's largest term.
 
-Tests marked xfail(strict) record bugs found in the API (see their reasons).
 """
 
 from __future__ import annotations
@@ -500,10 +499,6 @@ def test_vehicle_neutral_freedom():
     check_balanced(eq, spec, ["CART", "BODY"])
 
 
-@pytest.mark.xfail(strict=True, reason="the neutral-equilibrium message names the "
-                   "coordinates by the position of the zero eigenvalue in the sorted "
-                   "eigenvalues (fnames[i] for lam[i]), not by the mode shape: here it "
-                   "names the sprung Y.s")
 def test_vehicle_neutral_message_names_the_neutral_coordinate():
     """The same vehicle with the suspension's joint first (coordinates Y.s, X.s): the
     neutral mode is X.s alone (eigenvector (0, 1), 1e-12) and the message must not say
@@ -557,10 +552,6 @@ def test_no_load_every_posture_is_an_equilibrium():
     assert any("every posture is an equilibrium" in m for m in eq.messages), eq.messages
 
 
-@pytest.mark.xfail(strict=True, reason="the 'no load acts ... every posture is an "
-                   "equilibrium; the start posture is returned' message is decided by the "
-                   "load size at the final posture, so it is given at every stress-free "
-                   "equilibrium of a sprung mechanism reached from a loaded start")
 def test_stress_free_equilibrium_is_not_reported_as_no_load():
     """The truss started with its apex 0.2 above rest (springs loaded) relaxes to the
     rest posture (Y = 0, stiffness 4 k h^2 / L0^2 = 400): springs act, the start
@@ -660,15 +651,11 @@ def test_bad_calls_are_input_errors(pend, call):
         call(pend["sy"])
 
 
-@pytest.mark.xfail(strict=True, reason="equilibria: path values that are not numbers "
-                   "raise ValueError from np.asarray(path[k], float), not InputError")
 def test_path_of_text_is_input_error(pend):
     with pytest.raises(InputError):
         openimp.equilibria(pend["sy"], {"A": "abc"})
 
 
-@pytest.mark.xfail(strict=True, reason="equilibrium(t=nan) is accepted (equilibria "
-                   "refuses non-finite times)")
 def test_nonfinite_time_is_input_error(pend):
     with pytest.raises(InputError):
         openimp.equilibrium(pend["sy"], [0.5], t=math.nan)

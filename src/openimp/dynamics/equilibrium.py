@@ -45,7 +45,7 @@ from openimp.dynamics.statics import close_posture, static_point
 from openimp.errors import AnalysisError, InputError
 from openimp.kinematics.track import tracker
 from openimp.results import Equilibrium, EquilibriumPath, Trajectory
-from openimp.system import State, System, make_data, make_dyn_data, make_state
+from openimp.system import DAMPER, State, System, make_data, make_dyn_data, make_state
 
 #: relative force tolerance: |F_i| <= RTOL x the size of the loads
 RTOL = 1e-10
@@ -261,8 +261,10 @@ class _Search:
         status = "step cap"
         message = ""
         steps = 0
+        seen = 0.0  # the largest load size met: the scale of the force tolerance
         while True:
             cols, F, K, pe, scale, rank = self.evaluate(S, True)
+            seen = scale = max(seen, scale)
             free = ~S.sgc[cols]
             FF, KFF = F[free], K[np.ix_(free, free)]
             ftol = self.tolerance(cols, scale)[free]
@@ -387,7 +389,10 @@ def _start(system: System, q: Any, specified: Any, t: Any) -> State:
     if qm.shape != (system.nq,) or not np.all(np.isfinite(qm)):
         raise InputError(f"q must hold the {system.nq} joint variables as finite numbers, "
                          f"got shape {qm.shape}")
-    S = make_state(system, system.to_internal(qm), float(_floats(t, "t")))
+    tf = float(_floats(t, "t"))
+    if not math.isfinite(tf):
+        raise InputError(f"t must be a finite time, got {t!r}")
+    S = make_state(system, system.to_internal(qm), tf)
     for key in names:
         S.sgc[system.var_index(key)] = True
     return S
@@ -512,11 +517,12 @@ def _result(system: System, search: _Search, S: State, raw: dict[str, Any], want
         messages.append(f"{raw['escapes']} unstable equilibrium(s) left along the mode of "
                         "instability, to find a stable one")
     if stability == "neutral":
-        idx = [fnames[i] for i in range(len(fnames)) if abs(lam[i]) <= thr]
-        modes = ", ".join(f"{_mode_text(fnames, vec[:, i])}" for i in range(len(lam))
-                          if abs(lam[i]) <= thr)
-        messages.append(f"neutral equilibrium: no stiffness along {modes} (any value of "
-                        f"{', '.join(idx)} nearby balances as well)" if converged else
+        zero = [i for i in range(len(lam)) if abs(lam[i]) <= thr]
+        modes = ", ".join(_mode_text(fnames, vec[:, i]) for i in zero)
+        moved = sorted({fnames[int(np.argmax(np.abs(vec[:, i])))] for i in zero})
+        messages.append(f"neutral equilibrium: no stiffness along {modes} (the mechanism "
+                        f"balances as well when {', '.join(moved)} moves that way)"
+                        if converged else
                         f"neutral freedom: no stiffness along {modes}; an unbalanced load "
                         "there has no posture of balance")
     elif stability == "unstable":
@@ -528,7 +534,7 @@ def _result(system: System, search: _Search, S: State, raw: dict[str, Any], want
         messages.append("the stiffness is not symmetric (follower loads, no potential): "
                         "stability judged on its symmetric part, which covers divergence "
                         "only; see openimp.modes for flutter")
-    if raw["scale"] == 0.0:
+    if not _loaded(system):
         messages.append("no load acts (no gravity on a mass, no spring, no applied load): "
                         "every posture is an equilibrium; the start posture is returned")
     holding = {n: -float(F[i]) for i, n in enumerate(names) if spec[i]}
@@ -555,6 +561,17 @@ def _result(system: System, search: _Search, S: State, raw: dict[str, Any], want
 
         eq.forces = _forces(tr, pivot_tol=opts.pivot_tol)
     return eq
+
+
+def _loaded(system: System) -> bool:
+    """True when some load can act: gravity on a mass, a joint spring or load, an
+    element (spring, force or torque), or a load law."""
+    Y = system.Y
+    if np.any(Y.grav != 0.0) and any(float(J[3, 3]) != 0.0 for J in Y.Jb):
+        return True
+    if np.any(Y.qk != 0.0) or np.any(Y.qf != 0.0) or len(system.laws):
+        return True
+    return bool(np.any((Y.ekind != DAMPER) & (Y.evalue != 0.0)))
 
 
 def _quality(search: _Search, S: State) -> float:
@@ -610,7 +627,11 @@ def equilibria(system: System, path: Any = None, *, times: Any = None, q: Any = 
     n = None
     vals = []
     for k, c in zip(names, cols, strict=True):
-        arr = np.atleast_1d(np.asarray(path[k], float))
+        try:
+            arr = np.atleast_1d(np.asarray(path[k], float))
+        except (TypeError, ValueError):
+            raise InputError(f"equilibria: path[{k!r}] must be numbers, one per step, got "
+                             f"{path[k]!r}") from None
         if arr.ndim != 1 or not np.all(np.isfinite(arr)) or arr.size == 0:
             raise InputError(f"equilibria: path[{k!r}] must be finite values, one per step")
         if n is not None and arr.size != n:
@@ -619,7 +640,10 @@ def equilibria(system: System, path: Any = None, *, times: Any = None, q: Any = 
         n = arr.size
         vals.append(arr / system.var_scale[c])
     if times is not None:
-        tt = np.atleast_1d(np.asarray(times, float))
+        try:
+            tt = np.atleast_1d(np.asarray(times, float))
+        except (TypeError, ValueError):
+            raise InputError(f"equilibria: times must be numbers, got {times!r}") from None
         if tt.ndim != 1 or not np.all(np.isfinite(tt)) or tt.size == 0:
             raise InputError("equilibria: times must be finite values, one per step")
         if n is not None and tt.size != n:
@@ -730,9 +754,15 @@ def _turning_points(res: EquilibriumPath) -> list[str]:
             d = np.abs(b.q - a.q).max()
             prev = np.abs(a.q - st[k - 2].q).max() if k >= 2 else None
             if prev is not None and prev > 0 and d > 10 * prev and d > 0.05:
+                first = st[0].eigenvalues[0] if st[0].eigenvalues.size else None
+                fold = (la is not None and first is not None and first > 0
+                        and 0 <= la < 0.5 * first)
                 out.append(f"between steps {k - 1} and {k} the equilibrium jumps (a change of "
                            f"{d:.4g} against {prev:.4g} the step before): the path snapped "
-                           "to another branch")
+                           "to another branch" + (
+                               f"; the smallest stiffness eigenvalue had fallen from "
+                               f"{first:.4g} to {la:.4g}: a limit point (snap-through)"
+                               if fold else ""))
             del fr
     if res.parameter != "t":
         for name in (st[0].holding if st else {}):
