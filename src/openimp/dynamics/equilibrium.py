@@ -35,13 +35,53 @@ residual, K_FF dpsi_F = F_F (12.3, 12.4), with
 from __future__ import annotations
 
 import math
+import weakref
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from openimp.dynamics.laws import law_values_at
-from openimp.dynamics.statics import close_posture, static_point
+from openimp.dynamics.statics import (
+    BALANCED,
+    CAPPED,
+    DESCENT,
+    ESCAPE,
+    FAILED,
+    MODIFIED,
+    NEUTRAL_STEP,
+    NEWTON,
+    NO_FREE,
+    O_CLOSE,
+    O_FTOL,
+    O_LIMIT,
+    O_MAY_ESCAPE,
+    O_MAY_STEP,
+    O_NEUTRAL,
+    O_NUMERIC_K,
+    O_PTOL,
+    O_RTOL,
+    O_STABLE,
+    O_STEPTOL,
+    S_CLOSED,
+    S_EVALS,
+    S_FMAX,
+    S_HAVE,
+    S_ITER,
+    S_KEVALS,
+    S_KIND,
+    S_NF,
+    S_PE,
+    S_QUALITY,
+    S_RANK,
+    S_SCALE,
+    S_SEEN,
+    S_STEPMAX,
+    STEPPED,
+    close_posture,
+    search_step,
+    static_point,
+)
 from openimp.errors import AnalysisError, InputError
 from openimp.kinematics.track import tracker
 from openimp.results import Equilibrium, EquilibriumPath, Trajectory
@@ -99,44 +139,9 @@ def _options(force_tol: Any, rtol: Any, step_tol: Any, max_steps: Any, step_limi
                    pos(pivot_tol, "pivot_tol"), bool(seek_stable))  # type: ignore[arg-type]
 
 
-# ----------------------------------------------------------------------------- linear algebra
-def full_pivot_solve(K: np.ndarray, F: np.ndarray, eps: float
-                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Solve K x = F by Gauss-Jordan elimination with full pivoting (book 12.6).
-
-    Pivots are taken while the largest entry of the Schur complement
-    K22 - K21 K11^-1 K12 exceeds ``eps``.  Returns (x0, neutral, reduced, C): the
-    neutral group (the columns left unpivoted, ascending), the reduced load
-    F2 - K21 K11^-1 F1 of the rows left (ascending; paired with the neutral
-    columns in that order), and C (n, m) such that x = x0 - C x2 for any change
-    x2 of the neutral group (x0 is the book's option (a), x2 = 0).
-    """
-    n = K.shape[0]
-    A = np.hstack([K.astype(float), F.astype(float)[:, None]])
-    rows = list(range(n))
-    cols = list(range(n))
-    piv: list[tuple[int, int]] = []
-    for _ in range(n):
-        sub = np.abs(A[np.ix_(rows, cols)])
-        if sub.size == 0 or sub.max() <= eps:
-            break
-        i, j = np.unravel_index(int(np.argmax(sub)), sub.shape)
-        r, c = rows[i], cols[j]
-        A[r] /= A[r, c]
-        for rr in range(n):
-            if rr != r and A[rr, c] != 0.0:
-                A[rr] -= A[rr, c] * A[r]
-        piv.append((r, c))
-        rows.remove(r)
-        cols.remove(c)
-    neutral = np.array(sorted(cols), np.int64)
-    x0 = np.zeros(n)
-    C = np.zeros((n, neutral.size))
-    for r, c in piv:
-        x0[c] = A[r, n]
-        C[c] = A[r, neutral]
-    reduced = np.array([A[r, n] for r in sorted(rows)])
-    return x0, neutral, reduced, C
+# ----------------------------------------------------------------------------- the search
+_KINDS = {NEWTON: "newton", DESCENT: "descent", MODIFIED: "modified",
+          NEUTRAL_STEP: "neutral", ESCAPE: "escape"}
 
 
 def _sym_eig(K: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -146,13 +151,11 @@ def _sym_eig(K: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.linalg.eigh(0.5 * (K + K.T))
 
 
-# ----------------------------------------------------------------------------- the search
-class _Search:
-    """Scratch and stages of one system's equilibrium search (internal units)."""
+class _Scratch:
+    """The arrays of one system's searches (made once per System: allocating them costs
+    more than a search step)."""
 
-    def __init__(self, system: System, opts: Options) -> None:
-        self.system = system
-        self.opts = opts
+    def __init__(self, system: System) -> None:
         nq, nb = system.nq, len(system.bodies)
         self.data = make_data(system, nq)
         self.dyn = make_dyn_data(system, nq)
@@ -160,215 +163,182 @@ class _Search:
         self.z_G = self.dyn.view("Gf")
         self.z_law = self.dyn.view("law")
         self.E = self.data.view("E")
-        self.F = np.zeros(nq)
-        self.K = np.zeros((nq, nq))
-        self.P2 = np.zeros((nq, nq, nq))
-        self.A2 = np.zeros((nb, nq, nq, 6))
-        self.work = (np.zeros(nq), np.zeros(nq), np.zeros(nq), np.zeros(nq),
-                     np.zeros((nb, 6)), np.zeros(nq))
-        self.keep = np.zeros(nq, np.bool_)
-        self.evaluations = 0
-        self.stiffness_evaluations = 0
-        self.iterations = 0  # of the last closure
+        f = np.zeros
+        Ls = system.length_scale
+        vs = system.var_scale.astype(float)
+        gs = np.where(vs == 1.0, Ls * Ls, Ls)
+        self.bufs = (f(nq), f((nq, nq)), f(nq, np.int64), f(nq), f((nq, nq)),
+                     f(nq, np.int64), f((nq, nq, nq)), f((nb, nq, nq, 6)), f((nq, nq)),
+                     f(nq), vs, gs, f(nq, np.int64), f(nq), f((nq, nq)), f((nq, nq + 1)),
+                     f(nq), f(nq), f((nq, nq)), f((nq, nq)), f(nq), f(nq),
+                     f(nq, np.bool_), f(nq, np.bool_), f(nq, np.int64), f(nq, np.int64),
+                     f(nq, np.bool_))
+        self.F, self.K, self.cols = self.bufs[0], self.bufs[1], self.bufs[2]
+        self.work = (f(nq), f(nq), f(nq), f(nq), f((nb, 6)), f(nq))
+        self.opts = f(11)
+        self.state = f(14)
+
+
+_SCRATCH: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _scratch(system: System) -> _Scratch:
+    got = _SCRATCH.get(system)
+    if got is None:
+        got = _SCRATCH[system] = _Scratch(system)
+    return got
+
+
+class _Search:
+    """One equilibrium search of a system (internal units): the compiled
+    :func:`~openimp.dynamics.statics.search_step` in a loop, with the step cap, the
+    escapes from unstable equilibria and, for load laws, their values refreshed and
+    the stiffness differenced at every step."""
+
+    def __init__(self, system: System, opts: Options) -> None:
+        self.system = system
+        self.o = opts
+        sc = _scratch(system)
+        self.sc = sc
+        self.data, self.dyn, self.E = sc.data, sc.dyn, sc.E
         self.t = 0.0
+        self.iterations = 0
+        o = sc.opts
+        o[O_PTOL] = opts.pivot_tol
+        o[O_RTOL] = opts.rtol
+        o[O_FTOL] = -1.0 if opts.force_tol is None else opts.force_tol
+        o[O_STEPTOL] = -1.0 if opts.step_tol is None else opts.step_tol
+        o[O_LIMIT] = opts.step_limit
+        o[O_NEUTRAL] = opts.neutral_tol
+        o[O_STABLE] = float(opts.seek_stable)
+        o[O_NUMERIC_K] = float(bool(system.laws))
+        o[O_CLOSE] = CLOSE_TOL
+        sc.state[:] = 0.0
+
+    @property
+    def evaluations(self) -> int:
+        return int(self.sc.state[S_EVALS])
 
     # one posture -------------------------------------------------------------
     def _laws(self, S: State) -> None:
         if self.system.laws:
-            self.z_law[:] = law_values_at(self.system, S.q[None, :], np.zeros((1, S.q.size)),
-                                          self.t)[0]
+            self.sc.z_law[:] = law_values_at(self.system, S.q[None, :],
+                                             np.zeros((1, S.q.size)), self.t)[0]
 
-    def evaluate(self, S: State, want_k: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray,
-                                                          float, float, int]:
-        """(cols, F (nf,), K (nf, nf) or empty, potential energy, load scale, rank) at the
-        assembled posture S.q, over every generalized coordinate."""
-        sy = self.system
+    def evaluate(self, S: State) -> tuple[np.ndarray, np.ndarray]:
+        """(cols, F) at the posture S.q (assembled or not), without the stiffness."""
+        sy, sc = self.system, self.sc
         self._laws(S)
-        analytic_k = want_k and not sy.laws
-        nf, rank, pe, scale = static_point(sy.KP, self.data.DP, sy.YP, self.dyn.ZP, S,
-                                           sy.gen, self.opts.pivot_tol, analytic_k, self.F,
-                                           self.K, self.P2, self.A2, self.work)
-        self.evaluations += 1
-        cols = self.z_cols[:nf].copy()
-        F = self.F[:nf].copy()
-        K = self.K[:nf, :nf].copy() if analytic_k else np.zeros((nf, nf))
-        if want_k:
-            self.stiffness_evaluations += 1
-            if sy.laws:
-                K = self._numeric_k(S, cols, self.z_G[:, :nf].copy())
-        return cols, F, K, float(pe), float(scale), int(rank)
+        nf = static_point(sy.KP, sc.data.DP, sy.YP, sc.dyn.ZP, S, sy.gen, self.o.pivot_tol,
+                          False, sc.F, sc.K, sc.bufs[6], sc.bufs[7], sc.work)[0]
+        sc.state[S_EVALS] += 1
+        sc.state[S_HAVE] = 0.0
+        return sc.z_cols[:nf].copy(), sc.F[:nf].copy()
 
-    def _numeric_k(self, S: State, cols: np.ndarray, G: np.ndarray) -> np.ndarray:
-        """K = -dF/dpsi by central differences over closed postures (load laws, whose own
-        derivatives are not known in closed form); the posture S is restored."""
+    def _numeric_k(self, S: State) -> None:
+        """F and K = -dF/dpsi at S.q into the scratch, K by central differences over
+        closed postures (load laws, whose own derivatives are not known in closed form);
+        the posture S is restored."""
+        sy, sc = self.system, self.sc
+        cols, _ = self.evaluate(S)
         nf = cols.size
+        G = sc.z_G[:, :nf].copy()
         K = np.zeros((nf, nf))
         q0 = S.q.copy()
         for j in range(nf):
             Fs = []
-            for s in (H_LAW, -H_LAW):
-                S.q[:] = q0 + s * G[:, j]
-                if close_posture(self.system.KP, self.data.DP, S, self.system.gen, cols,
-                                 CLOSE_TOL, self.opts.pivot_tol, 30, self.keep)[0] != 0:
+            for h in (H_LAW, -H_LAW):
+                S.q[:] = q0 + h * G[:, j]
+                if close_posture(sy.KP, sc.data.DP, S, sy.gen, cols, CLOSE_TOL,
+                                 self.o.pivot_tol, 30, sc.bufs[26])[0] != 0:
                     S.q[:] = q0
                     raise AnalysisError("equilibrium: the loops do not close within "
                                         f"{H_LAW:g} of the posture along "
-                                        f"{self.system.var_names[cols[j]]}")
-                self._laws(S)
-                nf2, _, _, _ = static_point(self.system.KP, self.data.DP, self.system.YP,
-                                            self.dyn.ZP, S, self.system.gen,
-                                            self.opts.pivot_tol, False, self.F, self.K,
-                                            self.P2, self.A2, self.work)
-                self.evaluations += 1
-                if nf2 != nf or not np.array_equal(self.z_cols[:nf], cols):
+                                        f"{sy.var_names[cols[j]]}")
+                c2, F2 = self.evaluate(S)
+                if not np.array_equal(c2, cols):
                     S.q[:] = q0
                     raise AnalysisError("equilibrium: the generalized coordinates change "
                                         "within a differencing step (a singular posture)")
-                Fs.append(self.F[:nf].copy())
+                Fs.append(F2)
             K[:, j] = -(Fs[0] - Fs[1]) / (2 * H_LAW)
         S.q[:] = q0
         self._laws(S)
-        static_point(self.system.KP, self.data.DP, self.system.YP, self.dyn.ZP, S,
-                     self.system.gen, self.opts.pivot_tol, False, self.F, self.K, self.P2,
-                     self.A2, self.work)
-        return K
+        nf, rank, pe, scale = static_point(sy.KP, sc.data.DP, sy.YP, sc.dyn.ZP, S, sy.gen,
+                                           self.o.pivot_tol, False, sc.F, sc.K,
+                                           sc.bufs[6], sc.bufs[7], sc.work)
+        sc.state[S_EVALS] += 1
+        sc.state[S_KEVALS] += 1
+        sc.cols[:nf] = cols
+        sc.K[:nf, :nf] = K
+        st = sc.state
+        st[S_NF], st[S_RANK], st[S_PE], st[S_SCALE] = nf, rank, pe, scale
+        st[S_HAVE] = 1.0
 
     def close(self, S: State, cols: np.ndarray) -> bool:
         """Close the loops holding ``cols`` (and the SGCs); False when they do not close."""
-        status, self.iterations = close_posture(self.system.KP, self.data.DP, S,
-                                                self.system.gen, cols, CLOSE_TOL,
-                                                self.opts.pivot_tol, 30, self.keep)
+        sc = self.sc
+        status, self.iterations, q = close_posture(self.system.KP, sc.data.DP, S,
+                                                   self.system.gen, cols, CLOSE_TOL,
+                                                   self.o.pivot_tol, 30, sc.bufs[26])
+        sc.state[S_HAVE] = 0.0
+        if status == 0:
+            sc.state[S_QUALITY], sc.state[S_CLOSED] = q, 1.0
+            sc.state[S_ITER] = self.iterations
         return status == 0
 
     # the search ---------------------------------------------------------------
-    def tolerance(self, cols: np.ndarray, scale: float) -> np.ndarray:
-        """Force tolerance per coordinate (internal units)."""
-        o = self.opts
-        if o.force_tol is not None:
-            Ls = self.system.length_scale
-            vs = self.system.var_scale[cols]
-            gs = np.where(vs == 1.0, Ls * Ls, Ls)
-            return o.force_tol / gs
-        return np.full(cols.size, o.rtol * max(scale, 1e-300))
-
     def run(self, S: State) -> dict[str, Any]:
         """Search from the assembled posture S (SGCs in S.sgc held); S.q ends at the last
         posture reached.  Returns the raw outcome (internal units)."""
-        o = self.opts
+        sy, sc, o = self.system, self.sc, self.o
+        st, opts = sc.state, sc.opts
+        st[S_SEEN] = 0.0
         history: list[tuple[str, float, float]] = []
-        neutral_steps = 0
-        escapes = 0
-        status = "step cap"
-        message = ""
+        counts = {"neutral": 0, "escape": 0}
         steps = 0
-        seen = 0.0  # the largest load size met: the scale of the force tolerance
+        status = "step cap"
         while True:
-            cols, F, K, pe, scale, rank = self.evaluate(S, True)
-            seen = scale = max(seen, scale)
-            free = ~S.sgc[cols]
-            FF, KFF = F[free], K[np.ix_(free, free)]
-            ftol = self.tolerance(cols, scale)[free]
-            nF = int(free.sum())
-            if nF == 0:
-                status = "no free coordinate"
-                break
-            kmax = float(np.abs(KFF).max(initial=0.0))
-            eps = o.neutral_tol * max(kmax, scale, 1e-300)
-            dpsi, neutral, reduced, C = full_pivot_solve(KFF, FF, eps)
-            balanced = bool(np.all(np.abs(FF) <= ftol))
-            small = o.step_tol is None or bool(
-                np.all(np.abs(dpsi * self.system.var_scale[cols[free]]) <= o.step_tol))
-            if balanced and small:
-                lam, vec = _sym_eig(KFF)
-                if o.seek_stable and lam[0] < -eps and escapes < 4 and steps < o.max_steps:
-                    # an unstable equilibrium: leave it along its mode (energy falls
-                    # both ways to second order), then search on
-                    escapes += 1
-                    step = 0.1 * o.step_limit * vec[:, 0]
-                    kind = "escape"
-                else:
-                    status = "balanced"
-                    break
-            else:
-                if steps >= o.max_steps:
-                    break
-                step, kind = self._step(FF, KFF, dpsi, neutral, reduced, C, ftol, eps)
-                if kind == "neutral":
-                    neutral_steps += 1
-            # increment limit (12.4)
-            size = float(np.linalg.norm(step))
-            if size > o.step_limit:
-                step *= o.step_limit / size
-            q0 = S.q.copy()
-            G = self.z_G[:, :cols.size].copy()
-            Gfree = G[:, free]
-            ok = False
-            for _half in range(12):
-                S.q[:] = q0 + Gfree @ step
-                if self.close(S, cols):
-                    if (kind in ("escape", "newton") and not o.seek_stable) or kind == "escape" \
-                            or self._work_ok(S, q0, cols, free, FF, step, ftol):
-                        ok = True
-                        break
-                step = 0.5 * step
-            if not ok:
-                S.q[:] = q0
-                status = "failed"
-                message = ("the loops cannot be closed (or the loads do work against every "
-                           "step) near this posture along the search direction; the search "
-                           "stopped at the last closed posture")
+            if sy.laws:
+                self._numeric_k(S)
+            opts[O_MAY_STEP] = float(steps < o.max_steps)
+            opts[O_MAY_ESCAPE] = float(counts["escape"] < 4 and steps < o.max_steps)
+            code = search_step(sy.KP, sc.data.DP, sy.YP, sc.dyn.ZP, S, sy.gen, opts, st,
+                               sc.bufs, sc.work)
+            if code != STEPPED:
+                status = {BALANCED: "balanced", NO_FREE: "no free coordinate",
+                          CAPPED: "step cap", FAILED: "failed"}[code]
                 break
             steps += 1
-            history.append((kind, float(np.abs(FF).max()), float(np.abs(step).max())))
-        # the last evaluation is at S.q (a failed step restored the posture it started
-        # from, whose F and K these are)
-        return dict(cols=cols, F=F, K=K, pe=pe, scale=scale, rank=rank, status=status,
-                    steps=steps, history=history, neutral_steps=neutral_steps,
-                    escapes=escapes, message=message,
+            kind = _KINDS[int(st[S_KIND])]
+            if kind in counts:
+                counts[kind] += 1
+            history.append((kind, float(st[S_FMAX]), float(st[S_STEPMAX])))
+        if st[S_HAVE] == 0.0:  # a failed step left a trial's evaluation in the scratch
+            if sy.laws:
+                self._numeric_k(S)
+            else:
+                opts[O_MAY_STEP] = opts[O_MAY_ESCAPE] = 0.0
+                search_step(sy.KP, sc.data.DP, sy.YP, sc.dyn.ZP, S, sy.gen, opts, st,
+                            sc.bufs, sc.work)
+        nf = int(st[S_NF])
+        cols = sc.cols[:nf].copy()
+        scale = max(float(st[S_SEEN]), float(st[S_SCALE]))
+        message = ("the loops cannot be closed (or the loads do work against every step) "
+                   "near this posture along the search direction; the search stopped at "
+                   "the last closed posture") if status == "failed" else ""
+        return dict(cols=cols, F=sc.F[:nf].copy(), K=sc.K[:nf, :nf].copy(),
+                    pe=float(st[S_PE]), scale=scale, rank=int(st[S_RANK]), status=status,
+                    steps=steps, history=history, neutral_steps=counts["neutral"],
+                    escapes=counts["escape"], message=message,
                     ftol=self.tolerance(cols, scale))
 
-    def _step(self, FF: np.ndarray, KFF: np.ndarray, dpsi: np.ndarray, neutral: np.ndarray,
-              reduced: np.ndarray, C: np.ndarray, ftol: np.ndarray, eps: float
-              ) -> tuple[np.ndarray, str]:
-        """The search step on the FGCs and its kind."""
-        o = self.opts
-        if neutral.size and np.any(np.abs(reduced) > ftol[neutral]):
-            # 12.6 (b): the neutral group follows its reduced load (a unit step, counted
-            # against the cap); the determinate group follows it through K11^-1 K12
-            d2 = o.step_limit * reduced / max(float(np.linalg.norm(reduced)), 1e-300)
-            step = dpsi - C @ d2
-            step[neutral] += d2
-            return step, "neutral"
-        lam, vec = _sym_eig(KFF)
-        if o.seek_stable and lam.size and lam[0] < -eps:
-            # indefinite: Newton with |eigenvalues| (descent; Newton near a minimum)
-            proj = vec.T @ FF
-            mag = np.maximum(np.abs(lam), eps)
-            return vec @ (proj / mag), "modified"
-        if not o.seek_stable or neutral.size or float(FF @ dpsi) > 0.0:
-            # the energy test (12.8): the loads do positive work along the step (without
-            # seek_stable, plain Newton: the nearest equilibrium of any kind)
-            return dpsi, "newton"
-        # steepest descent (12.9) over the length where the energy stops falling
-        curv = float(FF @ KFF @ FF)
-        nrm = float(np.linalg.norm(FF))
-        mu = float(FF @ FF) / curv if curv > 0 else o.step_limit / max(nrm, 1e-300)
-        return mu * FF, "descent"
-
-    def _work_ok(self, S: State, q0: np.ndarray, cols: np.ndarray, free: np.ndarray,
-                 F0: np.ndarray, step: np.ndarray, ftol: np.ndarray) -> bool:
-        """The loads did non-negative work over the trial step (trapezoid rule on the
-        generalized forces of both ends, each in its own coordinates), or the residual
-        fell; a step within the force tolerance is always accepted."""
-        cols1, F1, _, _, _, _ = self.evaluate(S, False)
-        free1 = ~S.sgc[cols1]
-        d1 = (S.q - q0)[cols1[free1]]
-        work = 0.5 * (float(F0 @ step) + float(F1[free1] @ d1))
-        if work >= 0.0:
-            return True
-        before = float(np.abs(F0).max())
-        after = float(np.abs(F1[free1]).max(initial=0.0))
-        return after < before or before <= float(ftol.max())
+    def tolerance(self, cols: np.ndarray, scale: float) -> np.ndarray:
+        """Force tolerance per coordinate (internal units)."""
+        o = self.o
+        if o.force_tol is not None:
+            return o.force_tol / self.sc.bufs[11][cols]
+        return np.full(cols.size, o.rtol * max(scale, 1e-300))
 
 
 # ----------------------------------------------------------------------------- entries
@@ -436,15 +406,11 @@ def equilibrium(system: System, q: Any = None, *, specified: Any = (), t: float 
     opts = _options(force_tol, rtol, step_tol, max_steps, step_limit, neutral_tol, pivot_tol,
                     seek_stable)
     S = _start(system, q, specified, t)
-    search = _searcher(system, opts)
+    search = _Search(system, opts)
     search.t = S.time
     _assemble(search, S)
     raw = search.run(S)
     return _result(system, search, S, raw, forces, opts)
-
-
-def _searcher(system: System, opts: Options) -> _Search:
-    return _Search(system, opts)
 
 
 def _assemble(search: _Search, S: State) -> None:
@@ -453,13 +419,15 @@ def _assemble(search: _Search, S: State) -> None:
     from openimp.kinematics.posture import newton
 
     sy = search.system
-    cols, *_ = search.evaluate(S, False)
+    st = search.sc.state
+    st[S_EVALS] = st[S_KEVALS] = st[S_CLOSED] = 0.0
+    cols, _ = search.evaluate(S)
     if float(np.abs(search.E).max(initial=0.0)) <= CLOSE_TOL:
         return
     q0 = S.q.copy()
     if not search.close(S, cols):
         S.q[:] = q0  # the FGCs free too: the nearest assembly
-        st = newton(sy.KP, search.data.DP, S, sy.gen, CLOSE_TOL, search.opts.pivot_tol, 50,
+        st = newton(sy.KP, search.data.DP, S, sy.gen, CLOSE_TOL, search.o.pivot_tol, 50,
                     False)[0]
         if st != 0:
             raise InputError("equilibrium: the start posture cannot be assembled (the loops "
@@ -540,10 +508,11 @@ def _result(system: System, search: _Search, S: State, raw: dict[str, Any], want
     holding = {n: -float(F[i]) for i, n in enumerate(names) if spec[i]}
     q_int = S.q.copy()
     quality = _quality(search, S)
+    iterations = int(search.sc.state[S_ITER]) if search.sc.state[S_CLOSED] else 0
     tr = Trajectory(system, q_int[None, :].copy(), np.array([quality]),
                     np.array([raw["rank"]], np.int64),
                     np.isin(np.arange(system.nq), cols[free])[None, :],
-                    np.array([search.iterations], np.int64), [n for n, s in zip(names, spec,
+                    np.array([iterations], np.int64), [n for n, s in zip(names, spec,
                                                                            strict=True) if s],
                     tracker=tracker(system), sgc=S.sgc.copy())
     tr.rank_ref, tr.quality_ref = raw["rank"], 1.0
@@ -575,10 +544,13 @@ def _loaded(system: System) -> bool:
 
 
 def _quality(search: _Search, S: State) -> float:
-    """The quality index of the elimination at S.q with its SGCs (6.5.3)."""
+    """The quality index of the elimination at S.q with its generalized coordinates held
+    (6.5.3): the last closure's, else a fresh elimination."""
     from openimp.kinematics.posture import eliminate_at
 
-    return float(eliminate_at(search.system, search.data, S, search.opts.pivot_tol)[1])
+    if search.sc.state[S_CLOSED]:
+        return float(search.sc.state[S_QUALITY])
+    return float(eliminate_at(search.system, search.data, S, search.o.pivot_tol)[1])
 
 
 def _mode_text(names: list[str], v: np.ndarray) -> str:
