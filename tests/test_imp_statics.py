@@ -679,7 +679,8 @@ def test_delete_input_all_then_find_equilib(tmp_path) -> None:
 
 
 # =============================================================================
-# bugs found while writing these tests (strict xfail: they pass once fixed)
+# bugs found while writing these tests (fixed): VALUE-of-time loads while searching,
+# turning points in the listing's names and units
 # =============================================================================
 RAMP = """TITLE = ARM UNDER A RAMPED TIP LOAD
 ZPIN (BASE, ARM) = A
@@ -704,13 +705,6 @@ END
 """
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "static mode freezes VALUE-given element data at the first step's time while "
-    "searching: the IMP ValueLaws evaluate a VALUE at LoadState.step (resolve_at(step)), "
-    "and the search's law_values_at builds one-row states whose step is always 0, so "
-    "static.py's resolve_at(k) -> times[k] is never asked for k > 0; the force analysis "
-    "afterwards (steps 0..n-1) does see the load, so the listing shows the t = 0 rest "
-    "carrying an unbalanced moment as a holding load"))
 def test_value_of_time_load_is_applied_while_searching(tmp_path) -> None:
     """A tip load 2 T lbf (down) on the arm of a pin with a torsion spring of 1 in lbf
     per degree: the rest at each time solves k theta + (W c + 24 T) cos theta = 0."""
@@ -725,10 +719,6 @@ def test_value_of_time_load_is_applied_while_searching(tmp_path) -> None:
     np.testing.assert_allclose(got, expect, atol=1e-6)   # t = 1, 2, 3: the ramp
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "the turning-point note of an IMP run names the SGC as openimp does (A.theta) and "
-    "gives its value in radians (3.00197), where the IMP listings of the same run give "
-    "joint A in degrees (172); DESIGN.md: degrees where IMP prints degrees"))
 def test_turning_point_note_is_in_the_listings_units(toggle) -> None:
     _, echo = toggle
     note = next(ln for ln in echo if "Turning point" in ln and "maximum" in ln)

@@ -148,6 +148,8 @@ def _sym_eig(K: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Eigenvalues (ascending) and vectors of the symmetric part of K."""
     if K.size == 0:
         return np.zeros(0), np.zeros((0, 0))
+    if K.shape[0] == 1:
+        return K[0].copy(), np.ones((1, 1))
     return np.linalg.eigh(0.5 * (K + K.T))
 
 
@@ -177,6 +179,7 @@ class _Scratch:
         self.work = (f(nq), f(nq), f(nq), f(nq), f((nb, 6)), f(nq))
         self.opts = f(11)
         self.state = f(14)
+        self.loaded = _loaded(system)
 
 
 _SCRATCH: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
@@ -440,9 +443,10 @@ def _result(system: System, search: _Search, S: State, raw: dict[str, Any], want
             opts: Options) -> Equilibrium:
     """The :class:`~openimp.results.Equilibrium` of a finished search (model units)."""
     cols = raw["cols"]
-    vs = system.var_scale[cols]
+    sc = search.sc
+    vs = sc.bufs[10][cols]
+    gs = sc.bufs[11][cols]
     Ls = system.length_scale
-    gs = np.where(vs == 1.0, Ls * Ls, Ls)
     names = [system.var_names[c] for c in cols]
     spec = S.sgc[cols].copy()
     free = ~spec
@@ -451,7 +455,7 @@ def _result(system: System, search: _Search, S: State, raw: dict[str, Any], want
     ftol = raw["ftol"] * gs
     status = raw["status"]
     messages: list[str] = []
-    KFF = K[np.ix_(free, free)]
+    KFF = K if not spec.any() else K[np.ix_(free, free)]
     lam, vec = _sym_eig(KFF)
     scale_k = max(float(np.abs(KFF).max(initial=0.0)), raw["scale"] * Ls * Ls, 1e-300)
     thr = opts.neutral_tol * scale_k
@@ -502,16 +506,17 @@ def _result(system: System, search: _Search, S: State, raw: dict[str, Any], want
         messages.append("the stiffness is not symmetric (follower loads, no potential): "
                         "stability judged on its symmetric part, which covers divergence "
                         "only; see openimp.modes for flutter")
-    if not _loaded(system):
+    if not sc.loaded:
         messages.append("no load acts (no gravity on a mass, no spring, no applied load): "
                         "every posture is an equilibrium; the start posture is returned")
     holding = {n: -float(F[i]) for i, n in enumerate(names) if spec[i]}
     q_int = S.q.copy()
     quality = _quality(search, S)
     iterations = int(search.sc.state[S_ITER]) if search.sc.state[S_CLOSED] else 0
+    fgc = np.zeros((1, system.nq), bool)
+    fgc[0, cols[free]] = True
     tr = Trajectory(system, q_int[None, :].copy(), np.array([quality]),
-                    np.array([raw["rank"]], np.int64),
-                    np.isin(np.arange(system.nq), cols[free])[None, :],
+                    np.array([raw["rank"]], np.int64), fgc,
                     np.array([iterations], np.int64), [n for n, s in zip(names, spec,
                                                                            strict=True) if s],
                     tracker=tracker(system), sgc=S.sgc.copy())
@@ -519,7 +524,7 @@ def _result(system: System, search: _Search, S: State, raw: dict[str, Any], want
     tr.set_rates(np.zeros((1, system.nq)), np.zeros((1, system.nq)), np.zeros(1))
     tr.time = np.array([S.time])
     eq = Equilibrium(
-        system=system, q=system.to_model(q_int), coords=names, specified=spec,
+        system=system, q=q_int * sc.bufs[10], coords=names, specified=spec,
         converged=converged, status=status, steps=raw["steps"],
         evaluations=search.evaluations, residual=F, force_tol=ftol, stiffness=K,
         eigenvalues=lam, eigenvectors=vec, stability=stability, holding=holding,
@@ -709,16 +714,25 @@ def _tangent(system: System, eq: Equilibrium, cols: list[int]) -> np.ndarray | N
     return T
 
 
-def _turning_points(res: EquilibriumPath) -> list[str]:
+def _turning_points(res: EquilibriumPath, label: str | None = None,
+                    show: Any = None, names: Any = None) -> list[str]:
+    """Messages for the turning points of a path.  ``label``: the parameter's name
+    (default ``res.parameter``), ``show``: value -> text (default ``{:.6g}``, model
+    units), ``names``: coordinate name -> the name to print (a listing's names)."""
     out: list[str] = []
     st = res.steps
+    par = res.parameter if label is None else label
+
+    def val(k: int) -> str:
+        v = float(res.values[k])
+        return f"{v:.6g}" if show is None else show(v)
     for k in range(1, len(st)):
         a, b = st[k - 1], st[k]
         la = a.eigenvalues[0] if a.eigenvalues.size else None
         lb = b.eigenvalues[0] if b.eigenvalues.size else None
         if la is not None and lb is not None and (la > 0) != (lb > 0):
-            out.append(f"between steps {k - 1} and {k} ({res.parameter} {res.values[k - 1]:.6g}"
-                       f" to {res.values[k]:.6g}) the smallest stiffness eigenvalue changes "
+            out.append(f"between steps {k - 1} and {k} ({par} {val(k - 1)}"
+                       f" to {val(k)}) the smallest stiffness eigenvalue changes "
                        f"sign ({la:.4g} to {lb:.4g}): the path passes a limit point or a "
                        "bifurcation and the stability changes")
         if a.coords == b.coords:
@@ -743,8 +757,9 @@ def _turning_points(res: EquilibriumPath) -> list[str]:
             for k in range(1, dw.size):
                 if dw[k - 1] * dw[k] < 0:
                     kind = "maximum" if dw[k - 1] > 0 else "minimum"
-                    out.append(f"the holding force of {name} passes a {kind} of about "
-                               f"{w[k]:.6g} at step {k} ({res.parameter} "
-                               f"{res.values[k]:.6g}): under a dead load of that size the "
-                               "mechanism would snap over (a limit load)")
+                    shown = name if names is None else names(name)
+                    out.append(f"the holding force of {shown} passes a {kind} of about "
+                               f"{w[k]:.6g} at step {k} ({par} {val(k)}): under a dead "
+                               "load of that size the mechanism would snap over (a limit "
+                               "load)")
     return out

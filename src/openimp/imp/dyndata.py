@@ -94,9 +94,17 @@ class ValueLaws:
     notes: list[str] = field(default_factory=list)
     _told: set[tuple[str, str]] = field(default_factory=set)
 
-    def value(self, name: str, step: int, label: str, where: Where) -> float:
-        """The VALUE ``name`` at ``step`` (0 when undefined, with a message)."""
-        resolve = self.resolve_at(step) if self.resolve_at is not None else None
+    def value(self, name: str, step: int, label: str, where: Where,
+              t: float | None = None) -> float:
+        """The VALUE ``name`` at ``step`` (0 when undefined, with a message).  Without
+        :attr:`resolve_at` (a search, not a solved motion) only TIME is known: ``t``."""
+        if self.resolve_at is not None:
+            resolve = self.resolve_at(step)
+        elif t is not None:
+            def resolve(kind: str, _name: str | None, _comp: int, t: float = t) -> float:
+                return t if kind == "TIME" else math.nan
+        else:
+            resolve = None
         why: list[str] = []
         try:
             v = float(self.values[name].evaluate(self.values, resolve, notes=why))
@@ -109,7 +117,9 @@ class ValueLaws:
         key = (name, label)
         if key not in self._told:
             self._told.add(key)
-            t = self.times[step] if self.times is not None and step < len(self.times) else step
+            if t is None:
+                t = self.times[step] if self.times is not None and step < len(self.times) \
+                    else step
             self.notes.append(f"{_loc(where)}VALUE {name} ({label}) is undefined at time "
                               f"{t:.6f}; 0 is used for it there" + (f" ({why[0]})" if why
                                                                     else ""))
@@ -120,7 +130,7 @@ class ValueLaws:
         """A function of the load state: the number ``datum * scale`` or the VALUE
         ``datum`` (already per radian / in radians: not scaled)."""
         if isinstance(datum, str):
-            return lambda s, n=datum: self.value(n, s.step, label, where)
+            return lambda s, n=datum: self.value(n, s.step, label, where, s.t)
         c = 0.0 if datum is None else float(datum) * scale
         return lambda s: c
 

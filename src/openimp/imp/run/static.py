@@ -23,25 +23,19 @@ is undefined there and 0 is used, with a message).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
-from openimp.dynamics.equilibrium import MAX_STEPS, equilibria
+from openimp.dynamics.equilibrium import MAX_STEPS, _turning_points, equilibria
 from openimp.errors import InputError
 from openimp.imp.run.kinematic import Motions, reads_model
 from openimp.imp.run.prepare import Prepared
 from openimp.imp.run.solution import Solution
 from openimp.kinematics.track import tracker
 from openimp.results import Trajectory
-
-
-def _time_only(t: float) -> Callable[[str, str | None, int], float]:
-    def resolve(kind: str, name: str | None, comp: int) -> float:
-        return t if kind == "TIME" else float("nan")
-
-    return resolve
 
 
 def solve(prep: Prepared, times: np.ndarray, start: np.ndarray | None,
@@ -67,9 +61,9 @@ def solve(prep: Prepared, times: np.ndarray, start: np.ndarray | None,
     if "SYSTEM" in st.zero:
         opts["pivot_tol"] = float(st.tolerance("SYSTEM")[0])
     laws = prep.built.dyn.laws
-    if laws is not None:
+    if laws is not None:  # while searching a VALUE knows the time of its step only
         laws.times = np.asarray(times, float)
-        laws.resolve_at = lambda k: _time_only(float(times[min(k, len(times) - 1)]))
+        laws.resolve_at = None
     path = {system.var_names[d.column]: motions.p[:n, j] for j, d in enumerate(drivers)}
     if n == 0:
         sol = Solution(empty, times[:0], motions.halt.text if motions.halt else "")
@@ -85,18 +79,36 @@ def solve(prep: Prepared, times: np.ndarray, start: np.ndarray | None,
     sol.interrupted = res.interrupted
     sol.search = [e.messages[0] if e.status == "balanced" else "" for e in res.steps]
     sol.equilibria = res
+    told: set[str] = set()
     for k, e in enumerate(res.steps):
         if not e.converged:
             continue  # its messages are the run's stop message
         for m in e.messages[1 if e.status == "balanced" else 0:]:
-            note = f"step {k}: {m}" if n > 1 else m
-            if note not in notes:
-                notes.append(note)
-    for m in res.turning_points:
+            if m not in told:  # once, at the first step that says it
+                told.add(m)
+                notes.append(f"step {k}: {m}" if n > 1 else m)
+    for m in _turning_points(res, *_imp_names(prep, drivers)):
         notes.append(f"Turning point: {m}")
     if motions.halt is not None and not sol.message:
         sol.stop = motions.halt.text
     return sol
+
+
+def _imp_names(prep: Prepared, drivers: list[Any]) -> tuple[str | None, Any, Any]:
+    """The path's parameter as IMP lists it (the first input joint, in degrees or
+    lengths) and the SGC names of the holding forces as joints."""
+    if not drivers:
+        return "time", None, lambda name: name.split(".")[0]
+    d = drivers[0]
+    label = d.joint if d.var == 0 else f"{d.joint} {d.var + 1}"
+
+    def show(v: float) -> str:
+        v *= d.sign
+        return f"{math.degrees(v):.4f} deg" if d.kind == "angle" else f"{v:.6g}"
+
+    by_col = {prep.system.var_names[x.column]: (x.joint if x.var == 0 else
+                                                 f"{x.joint} {x.var + 1}") for x in drivers}
+    return label, show, lambda name: by_col.get(name, name)
 
 
 def _stop_text(res: Any, times: np.ndarray) -> str:
