@@ -393,6 +393,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--no-cli", action="store_true", help="skip `openimp run` start-up")
     p.add_argument("--no-vibration", action="store_true",
                    help="skip the linearization/modes benchmark (benchmarks.vibration)")
+    p.add_argument("--no-statics", action="store_true",
+                   help="skip the static equilibrium benchmark (benchmarks.statics)")
     p.add_argument("--out", default=None,
                    help="report file (default benchmarks/results.md for a full run, "
                         "benchmarks/results-partial.md for --quick or a subset)")
@@ -458,6 +460,13 @@ def main(argv: list[str] | None = None) -> int:
             vib = vibration.run_workers(vib_repeats)
             vib_text = vibration.section(vib, vib_repeats)
             extras["vibration"] = vibration.summary(vib)
+        if "openimp" in tools and not a.no_statics:
+            from benchmarks import statics
+
+            st_repeats = 5 if a.quick else 30
+            st = statics.run_workers(st_repeats)
+            st_text = statics.section(st, st_repeats)
+            extras["statics"] = statics.summary(st)
 
     from importlib import metadata
 
@@ -475,6 +484,8 @@ def main(argv: list[str] | None = None) -> int:
     text = report(results, extras, meta)
     if "vibration" in extras:
         text += "\n" + vib_text
+    if "statics" in extras:
+        text += "\n" + st_text
     print(text)
     full = (not a.quick and set(cases) == {*CASE_ORDER, "million"}
             and set(tools) == set(TOOL_ORDER))
