@@ -170,3 +170,28 @@ def test_announcer_names_the_linearization_kernels():
     assert "compiling the linearization kernels too" in lines[1]
     assert f"about {_warm.LINEAR_COMPILE_SECONDS} s" in lines[1]
     assert "2 kernels compiled" in lines[2]
+
+
+def test_announcer_names_the_equilibrium_kernels():
+    """The equilibrium search is its own group: a static run says it compiles the
+    equilibrium kernels, with their expected time, not the force kernels."""
+    import io as _io
+    import types
+
+    def kernel(name, module):
+        fn = types.FunctionType((lambda: None).__code__, {}, name)
+        fn.__module__ = module
+        return types.SimpleNamespace(py_func=fn)
+
+    buf = _io.StringIO()
+    talk = _warm.Announcer(buf, live=False)
+    talk._on_start(kernel("sweep_steps", "openimp.kinematics.sweep"))
+    talk.depth -= 1
+    talk._on_start(kernel("search_step", "openimp.dynamics.statics"))
+    talk._on_start(kernel("load_stiffness", "openimp.dynamics.linear"))  # nested
+    talk.depth -= 2
+    talk.close()
+    lines = buf.getvalue().splitlines()
+    assert len(lines) == 3, lines
+    assert "compiling the equilibrium kernels too" in lines[1]
+    assert f"about {_warm.STATIC_COMPILE_SECONDS} s" in lines[1]

@@ -48,6 +48,10 @@ FORCE_COMPILE_SECONDS = 20
 #: CPU seconds the linearization kernel compiles on top of the force stages it calls
 #: (openimp.dynamics.linear; measured on the reference machine, benchmarks/README.md)
 LINEAR_COMPILE_SECONDS = 30
+#: CPU seconds the equilibrium search compiles on top of the force stages (openimp.dynamics.
+#: statics with the stiffness stage of openimp.dynamics.linear; measured 41-57 s in the
+#: statics benchmark on the reference machine, loaded)
+STATIC_COMPILE_SECONDS = 45
 
 LOWER = "closed-form"
 GENERAL = "general"
@@ -212,6 +216,8 @@ class Announcer:
         """The kernels a compile belongs to and their expected CPU seconds."""
         if module == "openimp.dynamics.linear":
             return "linearization", LINEAR_COMPILE_SECONDS
+        if module == "openimp.dynamics.statics":
+            return "equilibrium", STATIC_COMPILE_SECONDS
         if module.startswith("openimp.dynamics"):
             return "force", FORCE_COMPILE_SECONDS
         return self.what, COMPILE_SECONDS
