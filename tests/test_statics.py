@@ -818,3 +818,200 @@ def test_equilibrium_with_load_law_at_time():
     ref = brentq(lambda x: truss_resistance(x) - t, 0.3, VM["h"], xtol=1e-15)
     assert eq.converged and abs(eq.value("Y") + VM["h"] - ref) <= 1e-9
     check_balanced(eq, spec, ["APEX"], law_forces=[("P", lambda tk: tk, (0.0, -1.0, 0.0))])
+
+
+# =============================================================================
+# review findings (each a reproducer of a problem a reviewer found, now fixed)
+# =============================================================================
+def _cart_pole(units: str, point_at_bob: bool = False):
+    """A cart on a slider (spring 1 N/m to x = 0) carrying a pendulum 1 m long, bob below:
+    every joint origin at one place, so the model's size comes from the bob's mass."""
+    s = 1000.0 if units == "mm" else 1.0
+    m = openimp.Model("cp")
+    m.set_units(units)
+    m.add_joint("prism", "X", "BASE", "CART", origin=(0, 0, 0), axis=(1, 0, 0))
+    m.add_joint("revolute", "A", "CART", "POLE", origin=(0, 0, 0))
+    m.add_mass("CART", 10.0, (0, 0, 0))
+    m.add_mass("POLE", 10.0, (0, -1.0 * s, 0))
+    if point_at_bob:
+        m.add_point("BOB", "POLE", (0, -1.0 * s, 0))
+    m.set_gravity((0, -9.81 * s, 0))
+    m.set_joint_spring("X", 1.0 / s, free=0.0)  # 1 N/m in N/mm for mm
+    return openimp.compile(m), s
+
+
+@pytest.mark.parametrize("units", ["SI", "mm"])
+def test_review_model_size_includes_mass_centres(units) -> None:
+    """In mm with every joint at one place the increment limit was 1 mm (the search
+    stalled at the step cap); the size of the model now includes its mass centres."""
+    sy, s = _cart_pole(units)
+    eq = openimp.equilibrium(sy, q=[0.3 * s, 0.2], forces=False)
+    assert eq.converged and eq.steps <= 10, eq.messages
+    np.testing.assert_allclose(eq.q, [0.0, 0.0], atol=1e-9 * s)
+
+
+def test_review_stability_does_not_depend_on_units() -> None:
+    """The same cart-pole in SI and mm: stable in both, eigenvalues k and m g l."""
+    out = {}
+    for units in ("SI", "mm"):
+        sy, s = _cart_pole(units, point_at_bob=True)
+        eq = openimp.equilibrium(sy, q=[0.3 * s, 0.2], forces=False)
+        assert eq.converged and eq.stability == "stable", (units, eq.messages)
+        out[units] = eq
+    # K = [[k, 0], [0, m g l]] in the model's units (mm: g = 9810, l = 1000)
+    np.testing.assert_allclose(np.sort(np.diag(out["SI"].stiffness)), [1.0, 98.1], rtol=1e-9)
+    np.testing.assert_allclose(np.sort(np.diag(out["mm"].stiffness)),
+                               [1e-3, 10 * 9810.0 * 1000.0], rtol=1e-9)
+
+
+def _ziegler():
+    m = openimp.Model("ziegler")
+    m.set_units("SI")
+    m.add_joint("revolute", "A", "BASE", "R1", origin=(0, 0, 0))
+    m.add_joint("revolute", "B", "R1", "R2", origin=(0, 1, 0))
+    m.add_mass("R1", 1.0, (0, 1, 0))
+    m.add_mass("R2", 0.2, (0, 2, 0))
+    m.add_point("T", "R2", (0, 2, 0))
+    m.add_point("T0", "R2", (0, 1, 0))
+    m.set_joint_spring("A", 10.0, free=0.0)
+    m.set_joint_spring("B", 10.0, free=0.0)
+    m.add_force("P", "T", 25.0, along=("T", "T0"))  # a follower: along the second rod
+    m.add_torque("M", "R2", 3.0, direction=(0, 0, 1))
+    return openimp.compile(m)
+
+
+def test_review_follower_load_converges_and_is_judged_on_k_itself() -> None:
+    """A Ziegler column (follower tip load): K is unsymmetric with eigenvalues 10, 10; the
+    default search converged nowhere (its stable-seeking used K's symmetric part, which
+    is indefinite) and called the rest unstable."""
+    sy = _ziegler()
+    eq = openimp.equilibrium(sy, forces=False)
+    plain = openimp.equilibrium(sy, seek_stable=False, forces=False)
+    assert eq.converged and plain.converged, eq.messages
+    np.testing.assert_allclose(eq.q, plain.q, atol=1e-10)
+    assert eq.stability == "stable", eq.messages
+    assert any("not symmetric" in m for m in eq.messages)
+    # the residual is balanced: moment balance of both rods by hand at the posture
+    assert eq.unbalance <= eq.force_tol.max()
+    lam = np.linalg.eigvals(eq.block("K", "FF") if hasattr(eq, "block") else eq.stiffness)
+    assert np.all(lam.real > 0)
+
+
+def test_review_constant_holding_force_has_no_turning_points() -> None:
+    """A lift on an inclined slider carrying a sprung four-bar: the holding force is the
+    weight along the axis at every step (equal to round-off); no extremum reported."""
+    m = openimp.Model("lift4")
+    m.set_units("SI")
+    m.add_joint("prism", "Y", "BASE", "CAR", origin=(0, 0, 0), axis=(0.1, 1, 0))
+    A, B, C, D = (np.array(v, float) for v in ([0, 0, 0], [0.3, 0.8, 0], [1.2, 1.0, 0],
+                                               [1.0, 0, 0]))
+    for n, b1, b2, o in (("A", "CAR", "CRANK", A), ("B", "CRANK", "COUP", B),
+                         ("C", "COUP", "ROCK", C), ("D", "ROCK", "CAR", D)):
+        m.add_joint("revolute", n, b1, b2, origin=tuple(o))
+    m.add_mass("CAR", 3, (0.5, 0, 0))
+    m.add_mass("CRANK", 1, tuple((A + B) / 2))
+    m.add_mass("COUP", 1, tuple((B + C) / 2))
+    m.add_mass("ROCK", 1, tuple((C + D) / 2))
+    m.add_point("PB", "CRANK", tuple(B))
+    m.add_point("G1", "CAR", (0.5, 1.5, 0))
+    m.add_spring("S", "PB", "G1", 50.0, free_length=0.2)
+    m.set_gravity((0, -9.81, 0))
+    p = openimp.equilibria(openimp.compile(m), {"Y": np.linspace(0, 1, 41)}, forces=False)
+    assert len(p) == 41 and not p.message
+    w = p.holding("Y.s")
+    # the weight (6 kg) along the unit axis (0.1, 1)/|.|, by hand
+    np.testing.assert_allclose(w, 6 * 9.81 / np.hypot(0.1, 1.0), rtol=1e-12)
+    assert p.turning_points == []
+
+
+def test_review_neutral_spin_is_not_a_change_of_stability() -> None:
+    """A rod on a ball joint whose spin is neutral at every step: the round-off sign of
+    its zero eigenvalue is no turning point."""
+    c = openimp.Model("lift")
+    c.set_units("SI")
+    c.add_joint("prism", "Y", "BASE", "CAR", origin=(0, 0, 0), axis=(0, 1, 0))
+    c.add_joint("sphere", "S", "CAR", "ROD", origin=(0.1, 0.2, 0.3))
+    c.add_mass("CAR", 50.0, (0.1, 0.2, 0.3))
+    c.add_mass("ROD", 5.0, (0.1, -0.6, 0.3))
+    c.add_point("T", "ROD", (0.1, -0.8, 0.3))
+    c.add_point("G", "BASE", (0.7, -0.5, 0.1))
+    c.add_spring("K", "T", "G", 200.0, free_length=0.3)
+    c.set_gravity((0, -9.81, 0))
+    p = openimp.equilibria(openimp.compile(c), {"Y": np.linspace(0, 0.05, 11)}, forces=False)
+    assert len(p) == 11 and set(p.stability) == {"neutral"}
+    assert not any("changes sign" in t for t in p.turning_points), p.turning_points
+
+
+def test_review_uneven_steps_are_no_jump() -> None:
+    """A stiff wound pendulum (no fold) stepped unevenly: no jump is reported."""
+    m = openimp.Model("wound")
+    m.set_units("SI")
+    m.add_joint("revolute", "A", "BASE", "KEY", origin=(0, 0, 0))
+    m.add_joint("revolute", "B", "KEY", "ROD", origin=(0, 0, 0))
+    m.add_mass("ROD", 2.0, (1.0, 0, 0))
+    m.set_gravity((0, -9.81, 0))
+    m.set_joint_spring("B", 30.0, free=0.0)
+    p = openimp.equilibria(openimp.compile(m), {"A": [0, 0.01, 0.3, 0.31]}, forces=False)
+    assert len(p) == 4 and set(p.stability) == {"stable"}
+    assert not any("jumps" in t for t in p.turning_points), p.turning_points
+
+
+def test_review_state_time_and_history_units() -> None:
+    """equilibrium(q=State, t=...) uses t; the history is in model units."""
+    from openimp.system import make_state
+
+    m = openimp.Model("slider")
+    m.set_units("SI")
+    m.add_joint("prism", "Y", "BASE", "B", origin=(0, 0, 0), axis=(0, 1, 0))
+    m.add_point("P", "B", (0, 0, 0))
+    m.add_point("Q", "BASE", (0, 2.0, 0))  # the model is 2 m long: internal unit 2 m
+    m.set_joint_spring("Y", 100.0, free=0.0)
+    m.add_force("F", "P", 0.0, direction=(0, 1, 0), law=lambda s: 10.0 * s.t)
+    sy = openimp.compile(m)
+    a = openimp.equilibrium(sy, t=2.0, forces=False)
+    b = openimp.equilibrium(sy, q=make_state(sy), t=2.0, forces=False)
+    assert a.value("Y") == pytest.approx(0.2, abs=1e-12)
+    assert b.value("Y") == pytest.approx(0.2, abs=1e-12) and b.t == 2.0
+    # the first step: unbalanced force 20 N at y = 0 (model units), a step of 0.2 m
+    _kind, f0, s0 = a.history[0]
+    assert f0 == pytest.approx(20.0, rel=1e-9) and s0 == pytest.approx(0.2, rel=1e-6)
+
+
+def test_review_nested_search_in_a_progress_callback() -> None:
+    """A search started inside a path's progress callback (same System) does not change
+    the path's options or scratch."""
+    m = openimp.Model("wound")
+    m.set_units("SI")
+    m.add_joint("revolute", "A", "BASE", "KEY", origin=(0, 0, 0))
+    m.add_joint("revolute", "B", "KEY", "ROD", origin=(0, 0, 0))
+    m.add_mass("ROD", 2.0, (1.0, 0, 0))
+    m.set_gravity((0, -9.81, 0))
+    m.set_joint_spring("B", 8.0, free=0.0)
+    sy = openimp.compile(m)
+    alpha = np.radians(np.arange(0, 200, 15))
+    ref = openimp.equilibria(sy, {"A": alpha}, forces=False)
+
+    def prog(i, n):
+        openimp.equilibrium(sy, force_tol=5.0, seek_stable=False, forces=False)
+
+    got = openimp.equilibria(sy, {"A": alpha}, progress=prog, forces=False)
+    np.testing.assert_allclose(got.q, ref.q, atol=1e-12)
+    assert all(e.unbalance <= e.force_tol.max() for e in got.steps)
+    with pytest.raises(InputError, match="progress"):
+        openimp.equilibria(sy, {"A": alpha}, progress=5)
+
+
+def test_review_over_specified_sgcs_are_said() -> None:
+    """Two SGCs on a one-freedom four-bar: their holding forces share the load in a way
+    the rigid model cannot determine; the result says so."""
+    m = openimp.Model("fb")
+    m.set_units("SI")
+    m.add_joint("revolute", "A", "BASE", "CR", origin=(0, 0, 0))
+    m.add_joint("revolute", "B", "CR", "CO", origin=(0.3, 0.8, 0))
+    m.add_joint("revolute", "C", "CO", "RO", origin=(1.2, 1.0, 0))
+    m.add_joint("revolute", "D", "RO", "BASE", origin=(1.0, 0, 0))
+    m.add_mass("CO", 1.0, (0.75, 0.9, 0))
+    m.set_gravity((0, -9.81, 0))
+    eq = openimp.equilibrium(openimp.compile(m), specified=["A", "B"], forces=False)
+    assert eq.status == "no free coordinate"
+    assert any("over-specify" in msg for msg in eq.messages), eq.messages

@@ -128,7 +128,8 @@ def test_statics_docs_run_and_are_right(monkeypatch, capsys) -> None:
     a90 = (math.pi / 2 + mgl / k) / DEG
     assert f"= {mgl:g} N m" in flat and f"alpha = {a90:.1f} degrees" in flat
     tps = path.turning_points
-    assert any("between steps 16 and 17 the equilibrium jumps" in t for t in tps)
+    assert any("between steps 16 and 17 (" in t and "the equilibrium jumps" in t
+               and "a limit point (snap-through)" in t for t in tps)
     top_k = int(np.argmax(hold))
     assert top_k == 15 and any(f"maximum of about {hold[15]:.6g} at step 15" in t for t in tps)
     assert f"{hold[15]:.6g}" in flat

@@ -633,10 +633,16 @@ def compile_model(model: Any) -> System:
             "connect them by joints (an 'open' joint if they float freely)"
         )
 
-    # --- length scale: diagonal of the bounding box of every origin and point
+    # --- length scale: diagonal of the bounding box of every origin, point and centre of
+    # mass (a mass far from every joint sets how far the mechanism moves: the increment
+    # limit of an equilibrium search is one internal length, book 12.4)
     pts = [j.frame1[:3, 3] for j in jlist] + [j.frame2[:3, 3] for j in jlist]
     pts += [p.xyz for p in model.points.values()]
     pts += [model.body_frames[b][:3, 3] for b in bodies]
+    for b, J in model.masses.items():
+        if b in model.body_frames and J[3, 3] > 0:
+            T = model.body_frames[b]
+            pts.append(T[:3, :3] @ (J[:3, 3] / J[3, 3]) + T[:3, 3])
     P = np.array(pts)
     diag = float(np.linalg.norm(P.max(axis=0) - P.min(axis=0)))
     Ls = diag if diag > 0 else 1.0

@@ -177,18 +177,22 @@ class _Scratch:
                      f(nq, np.bool_))
         self.F, self.K, self.cols = self.bufs[0], self.bufs[1], self.bufs[2]
         self.work = (f(nq), f(nq), f(nq), f(nq), f((nb, 6)), f(nq))
-        self.opts = f(11)
-        self.state = f(14)
         self.loaded = _loaded(system)
+        self.busy = False
 
 
 _SCRATCH: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 def _scratch(system: System) -> _Scratch:
+    """The system's scratch, marked busy; a fresh one while it is busy (a search started
+    inside another's callback, or from another thread)."""
     got = _SCRATCH.get(system)
     if got is None:
         got = _SCRATCH[system] = _Scratch(system)
+    elif got.busy:
+        got = _Scratch(system)
+    got.busy = True
     return got
 
 
@@ -206,7 +210,9 @@ class _Search:
         self.data, self.dyn, self.E = sc.data, sc.dyn, sc.E
         self.t = 0.0
         self.iterations = 0
-        o = sc.opts
+        self.opts = np.zeros(11)
+        self.state = np.zeros(14)
+        o = self.opts
         o[O_PTOL] = opts.pivot_tol
         o[O_RTOL] = opts.rtol
         o[O_FTOL] = -1.0 if opts.force_tol is None else opts.force_tol
@@ -216,11 +222,14 @@ class _Search:
         o[O_STABLE] = float(opts.seek_stable)
         o[O_NUMERIC_K] = float(bool(system.laws))
         o[O_CLOSE] = CLOSE_TOL
-        sc.state[:] = 0.0
+
+    def release(self) -> None:
+        """Give the scratch back to the system."""
+        self.sc.busy = False
 
     @property
     def evaluations(self) -> int:
-        return int(self.sc.state[S_EVALS])
+        return int(self.state[S_EVALS])
 
     # one posture -------------------------------------------------------------
     def _laws(self, S: State) -> None:
@@ -234,8 +243,8 @@ class _Search:
         self._laws(S)
         nf = static_point(sy.KP, sc.data.DP, sy.YP, sc.dyn.ZP, S, sy.gen, self.o.pivot_tol,
                           False, sc.F, sc.K, sc.bufs[6], sc.bufs[7], sc.work)[0]
-        sc.state[S_EVALS] += 1
-        sc.state[S_HAVE] = 0.0
+        self.state[S_EVALS] += 1
+        self.state[S_HAVE] = 0.0
         return sc.z_cols[:nf].copy(), sc.F[:nf].copy()
 
     def _numeric_k(self, S: State) -> None:
@@ -270,11 +279,11 @@ class _Search:
         nf, rank, pe, scale = static_point(sy.KP, sc.data.DP, sy.YP, sc.dyn.ZP, S, sy.gen,
                                            self.o.pivot_tol, False, sc.F, sc.K,
                                            sc.bufs[6], sc.bufs[7], sc.work)
-        sc.state[S_EVALS] += 1
-        sc.state[S_KEVALS] += 1
+        self.state[S_EVALS] += 1
+        self.state[S_KEVALS] += 1
         sc.cols[:nf] = cols
         sc.K[:nf, :nf] = K
-        st = sc.state
+        st = self.state
         st[S_NF], st[S_RANK], st[S_PE], st[S_SCALE] = nf, rank, pe, scale
         st[S_HAVE] = 1.0
 
@@ -284,10 +293,10 @@ class _Search:
         status, self.iterations, q = close_posture(self.system.KP, sc.data.DP, S,
                                                    self.system.gen, cols, CLOSE_TOL,
                                                    self.o.pivot_tol, 30, sc.bufs[26])
-        sc.state[S_HAVE] = 0.0
+        self.state[S_HAVE] = 0.0
         if status == 0:
-            sc.state[S_QUALITY], sc.state[S_CLOSED] = q, 1.0
-            sc.state[S_ITER] = self.iterations
+            self.state[S_QUALITY], self.state[S_CLOSED] = q, 1.0
+            self.state[S_ITER] = self.iterations
         return status == 0
 
     # the search ---------------------------------------------------------------
@@ -295,7 +304,7 @@ class _Search:
         """Search from the assembled posture S (SGCs in S.sgc held); S.q ends at the last
         posture reached.  Returns the raw outcome (internal units)."""
         sy, sc, o = self.system, self.sc, self.o
-        st, opts = sc.state, sc.opts
+        st, opts = self.state, self.opts
         st[S_SEEN] = 0.0
         history: list[tuple[str, float, float]] = []
         counts = {"neutral": 0, "escape": 0}
@@ -351,10 +360,20 @@ def _start(system: System, q: Any, specified: Any, t: Any) -> State:
     if not isinstance(system, System):
         raise InputError(f"equilibrium takes a compiled System, got {type(system).__name__}")
     names = _names(specified)
+    tf = None
+    if t is not None:
+        tf = float(_floats(t, "t"))
+        if not math.isfinite(tf):
+            raise InputError(f"t must be a finite time, got {t!r}")
     if isinstance(q, State):
+        if q.q.shape != (system.nq,):
+            raise InputError(f"the State holds {q.q.shape[0]} joint variables, the system "
+                             f"{system.nq}")
         S = q.copy()
         S.qd[:] = 0.0
         S.qdd[:] = 0.0
+        if tf is not None:
+            S.t[0] = tf
         for key in names:
             S.sgc[system.var_index(key)] = True
         return S
@@ -362,16 +381,13 @@ def _start(system: System, q: Any, specified: Any, t: Any) -> State:
     if qm.shape != (system.nq,) or not np.all(np.isfinite(qm)):
         raise InputError(f"q must hold the {system.nq} joint variables as finite numbers, "
                          f"got shape {qm.shape}")
-    tf = float(_floats(t, "t"))
-    if not math.isfinite(tf):
-        raise InputError(f"t must be a finite time, got {t!r}")
-    S = make_state(system, system.to_internal(qm), tf)
+    S = make_state(system, system.to_internal(qm), 0.0 if tf is None else tf)
     for key in names:
         S.sgc[system.var_index(key)] = True
     return S
 
 
-def equilibrium(system: System, q: Any = None, *, specified: Any = (), t: float = 0.0,
+def equilibrium(system: System, q: Any = None, *, specified: Any = (), t: float | None = None,
                 force_tol: float | None = None, rtol: float = RTOL,
                 step_tol: float | None = None, max_steps: int = MAX_STEPS,
                 step_limit: float = STEP_LIMIT, neutral_tol: float = NEUTRAL,
@@ -380,11 +396,12 @@ def equilibrium(system: System, q: Any = None, *, specified: Any = (), t: float 
     """The static equilibrium of ``system`` nearest the posture ``q`` (book ch 12).
 
     ``q``: joint variables (nq,), model units (default the modeling posture),
-    or a :class:`~openimp.system.State`; the posture is closed first with the
+    or a :class:`~openimp.system.State` (internal units; its SGCs ``sgc`` are
+    held too, its rates are ignored); the posture is closed first with the
     generalized coordinates held.  ``specified``: SGCs (joint names or
     ``"joint.var"``) held at their values in ``q``; the other generalized
     coordinates (FGCs) move until the loads balance.  ``t``: the time that
-    load laws read.
+    load laws read (default 0, or the State's).
 
     Convergence: every generalized force left on the FGCs is at most
     ``force_tol`` (model units: force, or moment for an angle), by default
@@ -410,10 +427,13 @@ def equilibrium(system: System, q: Any = None, *, specified: Any = (), t: float 
                     seek_stable)
     S = _start(system, q, specified, t)
     search = _Search(system, opts)
-    search.t = S.time
-    _assemble(search, S)
-    raw = search.run(S)
-    return _result(system, search, S, raw, forces, opts)
+    try:
+        search.t = S.time
+        _assemble(search, S)
+        raw = search.run(S)
+        return _result(system, search, S, raw, forces, opts)
+    finally:
+        search.release()
 
 
 def _assemble(search: _Search, S: State) -> None:
@@ -422,7 +442,7 @@ def _assemble(search: _Search, S: State) -> None:
     from openimp.kinematics.posture import newton
 
     sy = search.system
-    st = search.sc.state
+    st = search.state
     st[S_EVALS] = st[S_KEVALS] = st[S_CLOSED] = 0.0
     cols, _ = search.evaluate(S)
     if float(np.abs(search.E).max(initial=0.0)) <= CLOSE_TOL:
@@ -456,14 +476,25 @@ def _result(system: System, search: _Search, S: State, raw: dict[str, Any], want
     status = raw["status"]
     messages: list[str] = []
     KFF = K if not spec.any() else K[np.ix_(free, free)]
-    lam, vec = _sym_eig(KFF)
-    scale_k = max(float(np.abs(KFF).max(initial=0.0)), raw["scale"] * Ls * Ls, 1e-300)
-    thr = opts.neutral_tol * scale_k
+    # stability is judged in internal units (every coordinate a radian or an internal
+    # length, the search's own test); the eigenvalues are reported in model units
+    Ki = raw["K"] if not spec.any() else raw["K"][np.ix_(free, free)]
+    kmax = max(float(np.abs(Ki).max(initial=0.0)), 1e-300)
+    thr = opts.neutral_tol * max(kmax, raw["scale"])
+    symmetric = float(np.abs(Ki - Ki.T).max(initial=0.0)) <= 1e-8 * kmax
+    if symmetric:
+        lam, vec = _sym_eig(KFF)
+        li, vi = _sym_eig(Ki)
+    else:  # follower loads: divergence is a real eigenvalue of K_FF through zero
+        lam, vec = _eig(KFF)
+        li, vi = _eig(Ki)
+    vi = vi * vs[free][:, None] if vi.size else vi  # internal shapes to model units
+    low = li.real if li.size else li
     if free.sum() == 0:
         stability = "none"
-    elif lam[0] < -thr:
+    elif np.any((low < -thr) & (np.abs(li.imag) <= thr)) if not symmetric else low[0] < -thr:
         stability = "unstable"
-    elif lam[0] <= thr:
+    elif np.any(np.abs(li) <= thr):
         stability = "neutral"
     else:
         stability = "stable"
@@ -489,30 +520,37 @@ def _result(system: System, search: _Search, S: State, raw: dict[str, Any], want
         messages.append(f"{raw['escapes']} unstable equilibrium(s) left along the mode of "
                         "instability, to find a stable one")
     if stability == "neutral":
-        zero = [i for i in range(len(lam)) if abs(lam[i]) <= thr]
-        modes = ", ".join(_mode_text(fnames, vec[:, i]) for i in zero)
-        moved = sorted({fnames[int(np.argmax(np.abs(vec[:, i])))] for i in zero})
+        zero = [i for i in range(len(li)) if abs(li[i]) <= thr]
+        modes = ", ".join(_mode_text(fnames, vi[:, i].real) for i in zero)
+        moved = sorted({fnames[int(np.argmax(np.abs(vi[:, i])))] for i in zero})
         messages.append(f"neutral equilibrium: no stiffness along {modes} (the mechanism "
                         f"balances as well when {', '.join(moved)} moves that way)"
                         if converged else
                         f"neutral freedom: no stiffness along {modes}; an unbalanced load "
                         "there has no posture of balance")
     elif stability == "unstable":
-        modes = ", ".join(_mode_text(fnames, vec[:, i]) for i in range(len(lam))
-                          if lam[i] < -thr)
-        messages.append(f"unstable equilibrium: the potential energy falls along {modes}")
-    nonsym = float(np.abs(KFF - KFF.T).max(initial=0.0)) > 1e-8 * scale_k
-    if nonsym:
-        messages.append("the stiffness is not symmetric (follower loads, no potential): "
-                        "stability judged on its symmetric part, which covers divergence "
-                        "only; see openimp.modes for flutter")
+        modes = ", ".join(_mode_text(fnames, vi[:, i].real) for i in range(len(li))
+                          if li[i].real < -thr and abs(li[i].imag) <= thr)
+        messages.append((f"unstable equilibrium: the potential energy falls along {modes}"
+                         if symmetric else f"unstable equilibrium (divergence) along {modes}")
+                        if converged else
+                        f"the posture reached is not an equilibrium, and the stiffness "
+                        f"there is negative along {modes}")
+    if not symmetric and free.any():
+        messages.append("the stiffness is not symmetric (follower loads, no potential): the "
+                        "search is plain Newton (no energy test), and stability is the "
+                        "static test (divergence: a real eigenvalue of K_FF through zero); "
+                        "see openimp.modes for flutter")
+    over = _over_specified(search, S, cols, spec)
+    if over:
+        messages.append(over)
     if not sc.loaded:
         messages.append("no load acts (no gravity on a mass, no spring, no applied load): "
                         "every posture is an equilibrium; the start posture is returned")
     holding = {n: -float(F[i]) for i, n in enumerate(names) if spec[i]}
     q_int = S.q.copy()
     quality = _quality(search, S)
-    iterations = int(search.sc.state[S_ITER]) if search.sc.state[S_CLOSED] else 0
+    iterations = int(search.state[S_ITER]) if search.state[S_CLOSED] else 0
     fgc = np.zeros((1, system.nq), bool)
     fgc[0, cols[free]] = True
     tr = Trajectory(system, q_int[None, :].copy(), np.array([quality]),
@@ -537,6 +575,34 @@ def _result(system: System, search: _Search, S: State, raw: dict[str, Any], want
     return eq
 
 
+def _eig(K: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Eigenvalues (sorted by real part) and vectors of an unsymmetric K."""
+    if K.size == 0:
+        return np.zeros(0), np.zeros((0, 0))
+    lam, vec = np.linalg.eig(K)
+    order = np.argsort(lam.real)
+    lam, vec = lam[order], vec[:, order]
+    if np.all(np.abs(lam.imag) <= 1e-12 * max(np.abs(lam).max(), 1e-300)):
+        return lam.real.copy(), vec.real.copy()
+    return lam, vec
+
+
+def _over_specified(search: _Search, S: State, cols: np.ndarray, spec: np.ndarray) -> str:
+    """A message when the SGCs over-specify the mechanism (their holding forces then
+    split a load between them arbitrarily), else ""."""
+    from openimp.kinematics.posture import eliminate_at, sgc_residual
+
+    if not spec.any():
+        return ""
+    rank = eliminate_at(search.system, search.data, S, search.o.pivot_tol)[0]
+    if sgc_residual(search.data, S.sgc, rank) <= 1e-8:
+        return ""
+    names = [search.system.var_names[c] for c, s in zip(cols, spec, strict=True) if s]
+    return (f"the SGCs {', '.join(names)} over-specify the mechanism (they are not "
+            "independent): their holding forces share a load in a way the rigid model "
+            "cannot determine")
+
+
 def _loaded(system: System) -> bool:
     """True when some load can act: gravity on a mass, a joint spring or load, an
     element (spring, force or torque), or a load law."""
@@ -553,8 +619,8 @@ def _quality(search: _Search, S: State) -> float:
     (6.5.3): the last closure's, else a fresh elimination."""
     from openimp.kinematics.posture import eliminate_at
 
-    if search.sc.state[S_CLOSED]:
-        return float(search.sc.state[S_QUALITY])
+    if search.state[S_CLOSED]:
+        return float(search.state[S_QUALITY])
     return float(eliminate_at(search.system, search.data, S, search.o.pivot_tol)[1])
 
 
@@ -589,6 +655,9 @@ def equilibria(system: System, path: Any = None, *, times: Any = None, q: Any = 
     """
     want_forces = bool(options.pop("forces", True))
     progress = options.pop("progress", None)
+    if progress is not None and not callable(progress):
+        raise InputError(f"equilibria: progress must be a callable (steps done, steps), got "
+                         f"{progress!r}")
     opts = _options(options.pop("force_tol", None), options.pop("rtol", RTOL),
                     options.pop("step_tol", None), options.pop("max_steps", MAX_STEPS),
                     options.pop("step_limit", STEP_LIMIT), options.pop("neutral_tol", NEUTRAL),
@@ -631,6 +700,20 @@ def equilibria(system: System, path: Any = None, *, times: Any = None, q: Any = 
     if n is None:
         raise InputError("equilibria: give a path of SGC values or the times of load laws")
     search = _Search(system, opts)
+    try:
+        steps, message, interrupted = _walk(system, search, S, n, tt, cols, vals, opts,
+                                            progress)
+    finally:
+        search.release()
+    return _path_result(system, steps, message, interrupted, names, cols, vals, tt, opts,
+                        want_forces)
+
+
+def _walk(system: System, search: _Search, S: State, n: int, tt: np.ndarray | None,
+          cols: list[int], vals: list[np.ndarray], opts: Options, progress: Any
+          ) -> tuple[list[Equilibrium], str, bool]:
+    """The steps of a path, each from the last: (equilibria, why it stopped early or "",
+    interrupted)."""
     steps: list[Equilibrium] = []
     message = ""
     prev_tangent = None
@@ -653,6 +736,13 @@ def equilibria(system: System, path: Any = None, *, times: Any = None, q: Any = 
                                                  if not m.startswith("Equilibrium found"))
             break
         prev_tangent = _tangent(system, eq, cols) if cols else None
+    return steps, message, interrupted
+
+
+def _path_result(system: System, steps: list[Equilibrium], message: str, interrupted: bool,
+                 names: list[str], cols: list[int], vals: list[np.ndarray],
+                 tt: np.ndarray | None, opts: Options, want_forces: bool) -> EquilibriumPath:
+    """The :class:`~openimp.results.EquilibriumPath` of the steps reached."""
     traj = None
     good = [e for e in steps if e.converged]
     if good:
@@ -726,40 +816,64 @@ def _turning_points(res: EquilibriumPath, label: str | None = None,
     def val(k: int) -> str:
         v = float(res.values[k])
         return f"{v:.6g}" if show is None else show(v)
+    sy = res.system
+    vs = np.asarray(sy.var_scale) if st else None
+    fixed = {c for e in st for c, sp in zip(e.coords, e.specified, strict=True) if sp}
+    moving = np.array([n not in fixed for n in sy.var_names], bool)
+    # the path's parameter in internal units (an SGC's, or the time)
+    p_int = np.asarray(res.values, float)
+    if res.parameter != "t" and st:
+        p_int = p_int / vs[sy.var_index(res.parameter)]
+
+    def change(k: int) -> float:
+        """Largest change of the free variables from step k-1 to k per unit change of
+        the parameter (internal units)."""
+        d = float(np.abs((st[k].q - st[k - 1].q)[moving] / vs[moving]).max(initial=0.0))
+        dp = abs(p_int[k] - p_int[k - 1]) if k < p_int.size else 0.0
+        return d / dp if dp > 0 else d
+
     for k in range(1, len(st)):
         a, b = st[k - 1], st[k]
         la = a.eigenvalues[0] if a.eigenvalues.size else None
         lb = b.eigenvalues[0] if b.eigenvalues.size else None
-        if la is not None and lb is not None and (la > 0) != (lb > 0):
+        if {a.stability, b.stability} == {"stable", "unstable"}:
             out.append(f"between steps {k - 1} and {k} ({par} {val(k - 1)}"
                        f" to {val(k)}) the smallest stiffness eigenvalue changes "
                        f"sign ({la:.4g} to {lb:.4g}): the path passes a limit point or a "
                        "bifurcation and the stability changes")
-        if a.coords == b.coords:
-            fr = ~a.specified
-            d = np.abs(b.q - a.q).max()
-            prev = np.abs(a.q - st[k - 2].q).max() if k >= 2 else None
-            if prev is not None and prev > 0 and d > 10 * prev and d > 0.05:
+        if k >= 2 and a.coords == b.coords:
+            d, prev = change(k), change(k - 1)
+            jump = float(np.abs((b.q - a.q)[moving] / vs[moving]).max(initial=0.0))
+            if prev > 0 and d > 10 * prev and jump > 0.05:
                 first = st[0].eigenvalues[0] if st[0].eigenvalues.size else None
                 fold = (la is not None and first is not None and first > 0
                         and 0 <= la < 0.5 * first)
-                out.append(f"between steps {k - 1} and {k} the equilibrium jumps (a change of "
-                           f"{d:.4g} against {prev:.4g} the step before): the path snapped "
-                           "to another branch" + (
+                out.append(f"between steps {k - 1} and {k} ({par} {val(k - 1)} to "
+                           f"{val(k)}) the equilibrium jumps ({d / prev:.3g} times the "
+                           "change of the step before, per unit of the parameter): the "
+                           "path snapped to another branch" + (
                                f"; the smallest stiffness eigenvalue had fallen from "
                                f"{first:.4g} to {la:.4g}: a limit point (snap-through)"
                                if fold else ""))
-            del fr
-    if res.parameter != "t":
-        for name in (st[0].holding if st else {}):
+    single = res.parameter != "t" and len(st[0].holding if st else {}) >= 1
+    if single:
+        key = sy.var_names[sy.var_index(res.parameter)]
+        names_h = [key] if key in st[0].holding else []
+        for name in names_h:
             w = np.array([e.holding.get(name, np.nan) for e in st])
             dw = np.diff(w)
-            for k in range(1, dw.size):
-                if dw[k - 1] * dw[k] < 0:
-                    kind = "maximum" if dw[k - 1] > 0 else "minimum"
+            tol = 1e-8 * max(float(np.nanmax(np.abs(w), initial=0.0)), 1e-300)
+            sig = np.where(np.abs(dw) > tol, np.sign(dw), 0.0)
+            last = 0.0
+            for k in range(dw.size):
+                if sig[k] == 0.0:
+                    continue
+                if last != 0.0 and sig[k] != last:
+                    kind = "maximum" if last > 0 else "minimum"
                     shown = name if names is None else names(name)
                     out.append(f"the holding force of {shown} passes a {kind} of about "
                                f"{w[k]:.6g} at step {k} ({par} {val(k)}): under a dead "
                                "load of that size the mechanism would snap over (a limit "
                                "load)")
+                last = sig[k]
     return out

@@ -18,7 +18,7 @@ import numpy as np
 from openimp._jit import njit
 from openimp.dynamics.linear import _rate_forces, _setup, load_stiffness
 from openimp.kinematics.posture import newton
-from openimp.system import dyn_data_views
+from openimp.system import data_views, dyn_data_views
 
 
 @njit(nrt=False)
@@ -33,19 +33,32 @@ def static_point(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
     P2 (nq, nq, nq), A2 (nb, nq, nq, 6): second derivatives (scratch);
     work = (u, cv, cp, Qp, dF (nb, 6), dfq).  Returns (nf, rank, potential energy
     of gravity and linear springs, load scale): the scale is the sum of the
-    magnitudes of every body wrench and joint load, the size against which a
+    magnitudes of every body's force, its moment about the body's centre of mass
+    (frame origin when massless) and every joint load, the size against which a
     residual is judged balanced.
     """
     u, cv, cp, Qp, dF, dfq = work
     z = dyn_data_views(ZP)
+    d = data_views(DP)
     rank, nf = _setup(KP, DP, YP, ZP, S, gen, ptol)
     for j in range(nf):
         u[j] = 0.0
     pe = _rate_forces(KP, DP, YP, ZP, S, gen, rank, nf, u[:nf], cv, F)[1]
     scale = 0.0
     for b in range(z.Fext.shape[0]):
-        for k in range(6):
-            scale += abs(z.Fext[b, k])
+        # force, and moment about the body's centre of mass (or its frame's origin when
+        # massless), not the global origin, so that the scale does not grow with the
+        # model's distance from it
+        f = z.Fext[b]
+        G = z.Gb[b]
+        if G[3, 3] > 0.0:
+            ox, oy, oz = G[0, 3] / G[3, 3], G[1, 3] / G[3, 3], G[2, 3] / G[3, 3]
+        else:
+            ox, oy, oz = d.T0[b, 0, 3], d.T0[b, 1, 3], d.T0[b, 2, 3]
+        mx = f[3] - (oy * f[2] - oz * f[1])
+        my = f[4] - (oz * f[0] - ox * f[2])
+        mz = f[5] - (ox * f[1] - oy * f[0])
+        scale += abs(f[0]) + abs(f[1]) + abs(f[2]) + abs(mx) + abs(my) + abs(mz)
     for a in range(z.fq.shape[0]):
         scale += abs(z.fq[a])
     for j in range(nf):
@@ -223,7 +236,8 @@ def search_step(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.nd
     entries.  Returns STEPPED (S.q moved to the accepted trial, whose evaluation is now
     in F, K, cols), BALANCED, NO_FREE, CAPPED (not balanced, no step allowed) or FAILED
     (no trial closed and lowered the energy; S.q unchanged).  state[S_KIND],
-    state[S_FMAX], state[S_STEPMAX]: the step taken.
+    state[S_FMAX], state[S_STEPMAX]: the step taken, and the largest generalized force
+    and coordinate change over it, model units.
     """
     (F, K, cols, F1, K1, cols1, P2, A2, Gw, q0, vs, gs, fidx, FF, KFF, A, step, lam, V, W,
      x0, red, rleft, cleft, prow, pcol, keep) = bufs
@@ -251,6 +265,13 @@ def search_step(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.nd
             KFF[a, b] = K[fidx[a], fidx[b]]
             kmax = max(kmax, abs(KFF[a, b]))
     eps = opts[O_NEUTRAL] * max(kmax, seen, 1e-300)
+    # follower loads make K_FF unsymmetric: no potential, so no energy test, no
+    # stable-seeking (its symmetric part says nothing about divergence)
+    asym = 0.0
+    for a in range(nF):
+        for b in range(a + 1, nF):
+            asym = max(asym, abs(KFF[a, b] - KFF[b, a]))
+    conservative = asym <= 1e-8 * max(kmax, 1e-300)
     balanced = True
     ftol_max = 0.0
     for a in range(nF):
@@ -275,7 +296,7 @@ def search_step(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.nd
             if abs(x0[a] * vs[cols[fidx[a]]]) > opts[O_STEPTOL]:
                 small = False
     sym_eigen(KFF, nF, W, V, lam)
-    seek = opts[O_STABLE] != 0.0
+    seek = opts[O_STABLE] != 0.0 and conservative
     kind = NEWTON
     if balanced and small:
         if not (seek and lam[0] < -eps and opts[O_MAY_ESCAPE] != 0.0):
@@ -306,9 +327,9 @@ def search_step(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.nd
     work0 = 0.0
     for a in range(nF):
         work0 += FF[a] * step[a]
-    smax = 0.0
+    frec = 0.0  # the record, model units
     for a in range(nF):
-        smax = max(smax, abs(step[a]))
+        frec = max(frec, abs(FF[a]) * gs[cols[fidx[a]]])
     for _half in range(12):
         for c in range(nq):
             s = q0[c]
@@ -335,6 +356,9 @@ def search_step(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.nd
                         after = max(after, abs(F1[i]))
                 ok = 0.5 * (work0 + w1) >= 0.0 or after < fmax or fmax <= ftol_max
             if ok:
+                smax = 0.0
+                for a in range(nF):
+                    smax = max(smax, abs(step[a]) * vs[cols[fidx[a]]])
                 for i in range(nf1):
                     F[i] = F1[i]
                     cols[i] = cols1[i]
@@ -342,7 +366,7 @@ def search_step(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.nd
                         K[i, j] = K1[i, j]
                 state[S_NF] = nf1
                 state[S_KIND] = kind
-                state[S_FMAX] = fmax
+                state[S_FMAX] = frec
                 state[S_STEPMAX] = smax
                 state[S_HAVE] = 1.0
                 return STEPPED
