@@ -61,7 +61,6 @@ import argparse
 import json
 import os
 import statistics
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -702,22 +701,7 @@ def profile(repeats: int) -> None:
 
 # ------------------------------------------------------------------- report
 def run_workers(repeats: int) -> dict:
-    env = dict(os.environ)
-    env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
-    recs = {}
-    for tool in TOOLS:
-        t = time.perf_counter()
-        p = subprocess.run([sys.executable, "-m", "benchmarks.statics", "--worker", tool,
-                            "--repeats", str(repeats)], cwd=ROOT, env=env,
-                           capture_output=True, text=True, timeout=600)
-        lines = [ln for ln in p.stdout.splitlines() if ln.startswith("{")]
-        rec = (json.loads(lines[-1]) if lines else
-               {"tool": tool, "status": "error", "reason": p.stderr.strip()[-600:]})
-        rec["process_s"] = time.perf_counter() - t
-        print(f"  statics {tool:8s} {rec.get('status')} {rec['process_s']:.1f} s",
-              file=sys.stderr, flush=True)
-        recs[tool] = rec
-    return recs
+    return vib.run_workers(repeats, "benchmarks.statics", TOOLS)
 
 
 def _flat(out: dict) -> dict[str, np.ndarray]:

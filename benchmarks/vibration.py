@@ -428,20 +428,24 @@ def worker(tool: str, repeats: int) -> dict:
 
 
 # ------------------------------------------------------------------- report
-def run_workers(repeats: int) -> dict:
+def run_workers(repeats: int, module: str = "benchmarks.vibration",
+                tools: object = None) -> dict:
+    """Run ``python -m module --worker TOOL --repeats N`` for every tool, one process
+    each (imports and JIT caches of one tool do not touch another); their JSON records."""
     env = dict(os.environ)
     env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
     recs = {}
-    for tool in TOOLS:
+    label = module.rsplit(".", 1)[-1]
+    for tool in (TOOLS if tools is None else tools):  # type: ignore[attr-defined]
         t = time.perf_counter()
-        p = subprocess.run([sys.executable, "-m", "benchmarks.vibration", "--worker", tool,
+        p = subprocess.run([sys.executable, "-m", module, "--worker", tool,
                             "--repeats", str(repeats)], cwd=ROOT, env=env,
                            capture_output=True, text=True, timeout=600)
         lines = [ln for ln in p.stdout.splitlines() if ln.startswith("{")]
         rec = (json.loads(lines[-1]) if lines else
                {"tool": tool, "status": "error", "reason": p.stderr.strip()[-600:]})
         rec["process_s"] = time.perf_counter() - t
-        print(f"  vibration {tool:10s} {rec.get('status')} {rec['process_s']:.1f} s",
+        print(f"  {label} {tool:10s} {rec.get('status')} {rec['process_s']:.1f} s",
               file=sys.stderr, flush=True)
         recs[tool] = rec
     return recs

@@ -942,16 +942,22 @@ def test_review_neutral_spin_is_not_a_change_of_stability() -> None:
     assert not any("changes sign" in t for t in p.turning_points), p.turning_points
 
 
-def test_review_uneven_steps_are_no_jump() -> None:
-    """A stiff wound pendulum (no fold) stepped unevenly: no jump is reported."""
+def _wound(k: float):
+    """A rod (2 kg, centre 1 m out) on a torsion spring k between it and a key wound by
+    the SGC A, under gravity."""
     m = openimp.Model("wound")
     m.set_units("SI")
     m.add_joint("revolute", "A", "BASE", "KEY", origin=(0, 0, 0))
     m.add_joint("revolute", "B", "KEY", "ROD", origin=(0, 0, 0))
     m.add_mass("ROD", 2.0, (1.0, 0, 0))
     m.set_gravity((0, -9.81, 0))
-    m.set_joint_spring("B", 30.0, free=0.0)
-    p = openimp.equilibria(openimp.compile(m), {"A": [0, 0.01, 0.3, 0.31]}, forces=False)
+    m.set_joint_spring("B", k, free=0.0)
+    return openimp.compile(m)
+
+
+def test_review_uneven_steps_are_no_jump() -> None:
+    """A stiff wound pendulum (no fold) stepped unevenly: no jump is reported."""
+    p = openimp.equilibria(_wound(30.0), {"A": [0, 0.01, 0.3, 0.31]}, forces=False)
     assert len(p) == 4 and set(p.stability) == {"stable"}
     assert not any("jumps" in t for t in p.turning_points), p.turning_points
 
@@ -980,14 +986,7 @@ def test_review_state_time_and_history_units() -> None:
 def test_review_nested_search_in_a_progress_callback() -> None:
     """A search started inside a path's progress callback (same System) does not change
     the path's options or scratch."""
-    m = openimp.Model("wound")
-    m.set_units("SI")
-    m.add_joint("revolute", "A", "BASE", "KEY", origin=(0, 0, 0))
-    m.add_joint("revolute", "B", "KEY", "ROD", origin=(0, 0, 0))
-    m.add_mass("ROD", 2.0, (1.0, 0, 0))
-    m.set_gravity((0, -9.81, 0))
-    m.set_joint_spring("B", 8.0, free=0.0)
-    sy = openimp.compile(m)
+    sy = _wound(8.0)
     alpha = np.radians(np.arange(0, 200, 15))
     ref = openimp.equilibria(sy, {"A": alpha}, forces=False)
 

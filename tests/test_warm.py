@@ -114,12 +114,6 @@ def test_announcer_says_when_the_force_kernels_compile_too():
     force kernels' expected time; a run whose first compile is a force kernel says that
     first (and not twice)."""
     import io as _io
-    import types
-
-    def kernel(name, module):
-        fn = types.FunctionType((lambda: None).__code__, {}, name)
-        fn.__module__ = module
-        return types.SimpleNamespace(py_func=fn)
 
     buf = _io.StringIO()
     talk = _warm.Announcer(buf, live=False, prefix="deck.imp: ")
@@ -146,16 +140,19 @@ def test_announcer_says_when_the_force_kernels_compile_too():
     assert len(lines) == 2 and "compiling the force kernels (the first run" in lines[0]
 
 
+def kernel(name: str, module: str):
+    """A stand-in for a numba dispatcher of the function ``module.name``."""
+    import types
+
+    fn = types.FunctionType((lambda: None).__code__, {}, name)
+    fn.__module__ = module
+    return types.SimpleNamespace(py_func=fn)
+
+
 def test_announcer_names_the_linearization_kernels():
     """The linearization kernel is its own group; the force stages it compiles inside it
     (nested compiles) do not announce the force kernels."""
     import io as _io
-    import types
-
-    def kernel(name, module):
-        fn = types.FunctionType((lambda: None).__code__, {}, name)
-        fn.__module__ = module
-        return types.SimpleNamespace(py_func=fn)
 
     buf = _io.StringIO()
     talk = _warm.Announcer(buf, live=False)
@@ -176,12 +173,6 @@ def test_announcer_names_the_equilibrium_kernels():
     """The equilibrium search is its own group: a static run says it compiles the
     equilibrium kernels, with their expected time, not the force kernels."""
     import io as _io
-    import types
-
-    def kernel(name, module):
-        fn = types.FunctionType((lambda: None).__code__, {}, name)
-        fn.__module__ = module
-        return types.SimpleNamespace(py_func=fn)
 
     buf = _io.StringIO()
     talk = _warm.Announcer(buf, live=False)
