@@ -723,3 +723,40 @@ def test_turning_point_note_is_in_the_listings_units(toggle) -> None:
     _, echo = toggle
     note = next(ln for ln in echo if "Turning point" in ln and "maximum" in ln)
     assert "172" in note and "3.00197" not in note
+
+
+# =============================================================================
+# second review: a static path stays on its assembly branch; reach and names
+# =============================================================================
+def test_toggle_path_stays_on_its_branch_and_stops_at_its_reach(tmp_path) -> None:
+    """The toggle clamp's handle stepped past 218 degrees: the path flipped to the other
+    assembly of the four-bar at 228 (the closure's predictor did not move the dependent
+    variables).  The four-bar's D is set by A alone, so a kinematic run of the same deck
+    (an independent solution of the loop) must give the same D at every step; past
+    the four-bar's reach the run stops with the input in IMP's terms."""
+    text = re.sub(r"DATA POSITION \(A\) = [^\n]*", "DATA POSITION (A) = 168, 10, 8",
+                  (EXAMPLES / "toggle_clamp.imp").read_text())
+    runs, echo = run_deck(write(tmp_path, text, "static.imp"))
+    kin, _ = run_deck(write(tmp_path, text.replace("FIND EQUILIB", ""), "kin.imp"))
+    r, k = runs[0], kin[0]
+    Ds = r.table("LIST POSITION", "joint D").rows
+    Dk = k.table("LIST POSITION", "joint D").rows
+    assert Ds.shape[0] == 7  # 168 .. 228; 238 is beyond the linkage
+    np.testing.assert_allclose(Ds[:, 1], Dk[:7, 1], atol=1e-6)
+    assert "cannot be assembled with A = 238.0000 deg" in r.failure
+    assert "A.theta" not in r.failure
+    # no false limit load from a flipped branch: the hand torque grows to the end
+    mz = r.table("LIST FORCE", "joint A").rows[:, 6]
+    assert np.all(np.diff(mz[3:]) < 0)
+    assert not any("passes a maximum" in ln and "step 5" in ln for ln in echo)
+
+
+def test_static_heading_json_has_the_free_coordinates(tmp_path) -> None:
+    """--json's PRINT HEADING table of a static run carries the FGCs found and the search
+    steps, as the printed heading does."""
+    runs, echo = run_deck(EXAMPLES / "counterbalanced_arm.imp")
+    t = runs[0].table("PRINT HEADING", "generalized coordinates")
+    assert "A 1" in t.columns and "Search steps" in t.columns
+    row = t.rows[0]
+    assert row[t.columns.index("A 1")] == pytest.approx(47.15299306, abs=1e-6)
+    assert int(row[t.columns.index("Search steps")]) == search_lines(echo)[0]

@@ -1014,3 +1014,20 @@ def test_review_over_specified_sgcs_are_said() -> None:
     eq = openimp.equilibrium(openimp.compile(m), specified=["A", "B"], forces=False)
     assert eq.status == "no free coordinate"
     assert any("over-specify" in msg for msg in eq.messages), eq.messages
+
+
+def test_review_path_holding_takes_joint_names_and_refuses_others() -> None:
+    """EquilibriumPath.holding accepts the name used in the path ('A') as well as
+    'A.theta'; an unknown name or a coordinate that is not an SGC is an InputError; bad
+    flags are input errors."""
+    sy = _wound(8.0)
+    p = openimp.equilibria(sy, {"A": [0.1, 0.2]}, forces=False)
+    np.testing.assert_array_equal(p.holding("A"), p.holding("A.theta"))
+    assert np.all(np.isfinite(p.holding("A")))
+    for bad in ("bogus", "B"):
+        with pytest.raises(InputError):
+            p.holding(bad)
+    with pytest.raises(InputError, match="seek_stable"):
+        openimp.equilibrium(sy, seek_stable="no")
+    with pytest.raises(InputError, match="forces"):
+        openimp.equilibrium(sy, forces="no")

@@ -1116,8 +1116,14 @@ class EquilibriumPath:
         return np.array([e.q for e in self.steps])
 
     def holding(self, name: str) -> np.ndarray:
-        """(steps,) the holding force of SGC ``name`` along the path."""
-        return np.array([e.holding.get(name, np.nan) for e in self.steps])
+        """(steps,) the holding force of SGC ``name`` (``"joint"`` or ``"joint.var"``)
+        along the path; InputError for a name that is no SGC of it."""
+        key = self.system.var_names[self.system.var_index(name)]
+        if self.steps and key not in self.steps[0].holding:
+            held = ", ".join(self.steps[0].holding) or "none"
+            raise InputError(f"holding({name!r}): not an SGC of this path (the SGCs are "
+                             f"{held})")
+        return np.array([e.holding.get(key, np.nan) for e in self.steps])
 
     @property
     def stability(self) -> list[str]:
@@ -1131,7 +1137,8 @@ class EquilibriumPath:
         for c, name in enumerate(self.system.var_names):
             out[name] = q[:, c]
         for name in (self.steps[0].holding if self.steps else {}):
-            out[f"holding {name}"] = self.holding(name)
+            out[f"holding {name}"] = np.array([e.holding.get(name, np.nan)
+                                               for e in self.steps])
         out["lowest eigenvalue"] = np.array([e.eigenvalues[0] if e.eigenvalues.size
                                              else np.nan for e in self.steps])
         out["stability"] = self.stability

@@ -130,6 +130,8 @@ def _options(force_tol: Any, rtol: Any, step_tol: Any, max_steps: Any, step_limi
             raise InputError(f"{what} must be a positive number, got {x!r}")
         return v
 
+    if not isinstance(seek_stable, bool | np.bool_):
+        raise InputError(f"seek_stable must be True or False, got {seek_stable!r}")
     if isinstance(max_steps, bool) or not isinstance(max_steps, int | np.integer) \
             or max_steps < 1:
         raise InputError(f"max_steps must be a positive whole number, got {max_steps!r}")
@@ -425,6 +427,8 @@ def equilibrium(system: System, q: Any = None, *, specified: Any = (), t: float 
     """
     opts = _options(force_tol, rtol, step_tol, max_steps, step_limit, neutral_tol, pivot_tol,
                     seek_stable)
+    if not isinstance(forces, bool | np.bool_):
+        raise InputError(f"forces must be True or False, got {forces!r}")
     S = _start(system, q, specified, t)
     search = _Search(system, opts)
     try:
@@ -453,10 +457,12 @@ def _assemble(search: _Search, S: State) -> None:
         st = newton(sy.KP, search.data.DP, S, sy.gen, CLOSE_TOL, search.o.pivot_tol, 50,
                     False)[0]
         if st != 0:
-            raise InputError("equilibrium: the start posture cannot be assembled (the loops "
-                             f"miss closing by {float(np.abs(search.E).max()):.3g} and "
-                             "Newton does not close them); start nearer an assembly, e.g. "
-                             "from openimp.sweep(system, {driver: [value]}).q[0]")
+            raise InputError("equilibrium: the mechanism cannot be assembled at the start "
+                             f"posture (the loops miss closing by "
+                             f"{float(np.abs(search.E).max()):.3g} and Newton does not close "
+                             "them: a limit of travel or a singular posture of the inputs, "
+                             "or a start too far from an assembly); give input values the "
+                             "mechanism can reach, or a start posture nearer an assembly")
 
 
 def _result(system: System, search: _Search, S: State, raw: dict[str, Any], want_forces: bool,
@@ -653,7 +659,9 @@ def equilibria(system: System, path: Any = None, *, times: Any = None, q: Any = 
     path, and, on an SGC path, where a holding force passes an extremum (the
     limit load under which a dead load would snap the mechanism over).
     """
-    want_forces = bool(options.pop("forces", True))
+    want_forces = options.pop("forces", True)
+    if not isinstance(want_forces, bool | np.bool_):
+        raise InputError(f"forces must be True or False, got {want_forces!r}")
     progress = options.pop("progress", None)
     if progress is not None and not callable(progress):
         raise InputError(f"equilibria: progress must be a callable (steps done, steps), got "
@@ -769,13 +777,62 @@ def _path_step(system: System, search: _Search, S: State, k: int, tt: np.ndarray
     SGCs moved to their values there and the FGCs predicted along ``tangent``."""
     search.t = float(tt[k]) if tt is not None else 0.0
     S.t[0] = search.t
-    if tangent is not None and k > 0:
-        S.q[:] += tangent @ np.array([v[k] - v[k - 1] for v in vals])
-    for c, v in zip(cols, vals, strict=True):
-        S.q[c] = v[k]
+    if cols:
+        _move_sgcs(search, S, cols, np.array([v[k] for v in vals]),
+                   tangent if k > 0 else None)
     _assemble(search, S)
     raw = search.run(S)
     return _result(system, search, S, raw, False, opts)
+
+
+#: largest change of a stepped SGC per sub-step of its move (internal units: radians or
+#: internal lengths), so that the closure follows the branch (as a sweep does)
+SUBSTEP = 0.05
+
+
+def _move_sgcs(search: _Search, S: State, pcols: list[int], targets: np.ndarray,
+               tangent: np.ndarray | None) -> None:
+    """Move the SGCs ``pcols`` of S to ``targets`` (internal units) along the assembly
+    branch of S: sub-steps of at most SUBSTEP, each a first-order predictor of every
+    joint variable (phi' of the generalized coordinates at the posture before it; the
+    FGCs along ``tangent`` (nq, len(pcols)) of :func:`_tangent`, else held) and the
+    loops closed with the generalized coordinates held.  A start that is not
+    assembled gets the values set directly (closed by :func:`_assemble`).  InputError
+    when a sub-step cannot be closed: the inputs are beyond the mechanism's reach."""
+    sy = search.system
+    pc = np.asarray(pcols, np.int64)
+    start = S.q[pc].copy()
+    delta = targets - start
+    big = float(np.abs(delta).max(initial=0.0))
+    cols, _ = search.evaluate(S)
+    if big == 0.0 or float(np.abs(search.E).max(initial=0.0)) > 1e-8:
+        S.q[pc] = targets
+        return
+    n = max(1, math.ceil(big / SUBSTEP))
+    for i in range(1, n + 1):
+        if i > 1:
+            cols, _ = search.evaluate(S)
+        where = {int(c): j for j, c in enumerate(cols)}
+        G = search.sc.z_G[:, :cols.size]
+        d = delta / n
+        dq = np.zeros(sy.nq)
+        for j, c in enumerate(pc):
+            if int(c) in where:
+                dq += G[:, where[int(c)]] * d[j]
+        if tangent is not None:
+            for c in np.flatnonzero(np.abs(tangent).sum(axis=1)):
+                if int(c) in where and not S.sgc[c]:
+                    dq += G[:, where[int(c)]] * float(tangent[c] @ d)
+        S.q[:] += dq
+        S.q[pc] = start + delta * (i / n)
+        if not search.close(S, cols):
+            vs = sy.var_scale[pc]
+            asked = ", ".join(f"{sy.var_names[c]} = {v:.10g}" for c, v
+                              in zip(pc, targets * vs, strict=True))
+            reached = ", ".join(f"{sy.var_names[c]} = {v:.10g}" for c, v
+                                in zip(pc, (start + delta * ((i - 1) / n)) * vs, strict=True))
+            raise InputError(f"the mechanism cannot be assembled with {asked} (a limit of "
+                             f"travel or a singular posture; it closes up to {reached})")
 
 
 def _tangent(system: System, eq: Equilibrium, cols: list[int]) -> np.ndarray | None:

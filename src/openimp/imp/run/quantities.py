@@ -209,6 +209,8 @@ def make_table(prep: Prepared, sol: Solution, it: Item, notes: list[str]) -> Tab
                 cols.append(f"{d.joint} {d.var + 1}{lab}")
                 units.append(u[key])
                 data.append(arr)
+        if sol.equilibria is not None:  # static mode: the FGCs found and the search steps
+            _equilibrium_columns(prep, sol, cols, units, data)
         return tables_from_columns(request, "generalized coordinates", cols, units, data)
     if it.kind == "value":
         vals = _values(prep, sol, it.name, notes)
@@ -306,6 +308,42 @@ def _force_table(sol: Solution, it: Item, request: str, cols: list[str], units: 
         units.append(_FORCE)
         data.append(f)
     return tables_from_columns(request, f"{it.kind} {it.name}", cols, units, data)
+
+
+def _equilibrium_columns(prep: Prepared, sol: Solution, cols: list[str], units: list[str],
+                         data: list[np.ndarray]) -> None:
+    """The heading table's columns of a static run: every FGC of some step (its IMP joint
+    variable, degrees or length; NaN at steps where it is not free) and the search
+    steps of every position."""
+    sy = prep.system
+    names: list[str] = []
+    for k in range(sol.n):
+        for vn in sol.fgc[k]:
+            if vn not in names:
+                names.append(vn)
+    for vn in names:
+        joint = vn.split(".", 1)[0]
+        c = sy.var_index(vn)
+        ij = prep.built.joints[joint][0] if joint in prep.built.joints else None
+        imp = [i for i, d in enumerate(ij.drive) if d is not None and
+               d[0] == sy.var_names[sy.joint_vars(joint)].index(vn)] if ij is not None else []
+        if imp:  # the IMP joint variable this openimp variable is (sign, numbering)
+            i = imp[0]
+            pos = _joint_vars(prep, sol, joint)[1][:, i]
+            kind, idx = ij.var_kinds[i], i + 1
+        else:
+            pos = sol.q[:, c]
+            kind = sy.var_kinds[c]
+            idx = sy.var_names[sy.joint_vars(joint)].index(vn) + 1
+        free = np.array([vn in sol.fgc[k] for k in range(sol.n)])
+        val = np.degrees(pos) if kind == "angle" else pos
+        cols.append(f"{joint} {idx}")
+        units.append(_ANG_UNITS["POSITION"] if kind == "angle" else _LEN)
+        data.append(np.where(free, val, np.nan))
+    steps = [e.steps for e in sol.equilibria.steps if e.converged][:sol.n]
+    cols.append("Search steps")
+    units.append("")
+    data.append(np.asarray(steps, float))
 
 
 def _magnitude(v: Any) -> float:

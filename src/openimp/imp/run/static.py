@@ -24,6 +24,7 @@ is undefined there and 0 is used, with a message).
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Callable
 from typing import Any
 
@@ -72,10 +73,12 @@ def solve(prep: Prepared, times: np.ndarray, start: np.ndarray | None,
         res = equilibria(system, path or None, times=np.asarray(times[:n], float),
                          q=start, progress=progress, **opts)
     except InputError as exc:
-        return Solution(empty, times[:0], f"the run stopped at step 0: {exc}")
+        return Solution(empty, times[:0],
+                        _in_imp_terms(f"the run stopped at step 0: {exc}", prep, drivers))
     good = res.trajectory.nsteps if res.trajectory is not None else 0
     sol = Solution(res.trajectory if res.trajectory is not None else empty,
-                   np.asarray(times[:good], float), _stop_text(res, times))
+                   np.asarray(times[:good], float),
+                   _in_imp_terms(_stop_text(res, times), prep, drivers))
     sol.interrupted = res.interrupted
     sol.search = [e.messages[0] if e.status == "balanced" else "" for e in res.steps]
     sol.equilibria = res
@@ -109,6 +112,22 @@ def _imp_names(prep: Prepared, drivers: list[Any]) -> tuple[str | None, Any, Any
     by_col = {prep.system.var_names[x.column]: (x.joint if x.var == 0 else
                                                  f"{x.joint} {x.var + 1}") for x in drivers}
     return label, show, lambda name: by_col.get(name, name)
+
+
+def _in_imp_terms(text: str, prep: Prepared, drivers: list[Any]) -> str:
+    """``text`` with every ``joint.var = value`` of an input in IMP's terms: the joint
+    (and variable number) and the value in degrees or lengths."""
+    for d in drivers:
+        name = prep.system.var_names[d.column]
+        label = d.joint if d.var == 0 else f"{d.joint} {d.var + 1}"
+
+        def imp(m: re.Match, d: Any = d, label: str = label) -> str:
+            v = float(m.group(1)) * d.sign
+            return (f"{label} = {math.degrees(v):.4f} deg" if d.kind == "angle"
+                    else f"{label} = {v:.6g}")
+
+        text = re.sub(re.escape(name) + r" = (-?[0-9.]+(?:e[-+]?[0-9]+)?)", imp, text)
+    return text
 
 
 def _stop_text(res: Any, times: np.ndarray) -> str:
