@@ -79,6 +79,7 @@ from openimp.dynamics.statics import (
     S_STEPMAX,
     STEPPED,
     close_posture,
+    search_loop,
     search_step,
     static_point,
 )
@@ -311,23 +312,30 @@ class _Search:
         history: list[tuple[str, float, float]] = []
         counts = {"neutral": 0, "escape": 0}
         steps = 0
-        status = "step cap"
-        while True:
-            if sy.laws:
+        if not sy.laws:  # the whole search in one compiled call
+            hist = np.zeros((o.max_steps, 3))
+            cnt = np.zeros(3, np.int64)
+            code = search_loop(sy.KP, sc.data.DP, sy.YP, sc.dyn.ZP, S, sy.gen, opts, st,
+                               sc.bufs, sc.work, o.max_steps, hist, cnt)
+            steps = int(cnt[0])
+            counts["escape"], counts["neutral"] = int(cnt[1]), int(cnt[2])
+            history = [(_KINDS[int(h[0])], float(h[1]), float(h[2])) for h in hist[:steps]]
+        else:  # load laws: their values and the stiffness refreshed at every step
+            while True:
                 self._numeric_k(S)
-            opts[O_MAY_STEP] = float(steps < o.max_steps)
-            opts[O_MAY_ESCAPE] = float(counts["escape"] < 4 and steps < o.max_steps)
-            code = search_step(sy.KP, sc.data.DP, sy.YP, sc.dyn.ZP, S, sy.gen, opts, st,
-                               sc.bufs, sc.work)
-            if code != STEPPED:
-                status = {BALANCED: "balanced", NO_FREE: "no free coordinate",
-                          CAPPED: "step cap", FAILED: "failed"}[code]
-                break
-            steps += 1
-            kind = _KINDS[int(st[S_KIND])]
-            if kind in counts:
-                counts[kind] += 1
-            history.append((kind, float(st[S_FMAX]), float(st[S_STEPMAX])))
+                opts[O_MAY_STEP] = float(steps < o.max_steps)
+                opts[O_MAY_ESCAPE] = float(counts["escape"] < 4 and steps < o.max_steps)
+                code = search_step(sy.KP, sc.data.DP, sy.YP, sc.dyn.ZP, S, sy.gen, opts, st,
+                                   sc.bufs, sc.work)
+                if code != STEPPED:
+                    break
+                steps += 1
+                kind = _KINDS[int(st[S_KIND])]
+                if kind in counts:
+                    counts[kind] += 1
+                history.append((kind, float(st[S_FMAX]), float(st[S_STEPMAX])))
+        status = {BALANCED: "balanced", NO_FREE: "no free coordinate", CAPPED: "step cap",
+                  FAILED: "failed"}[code]
         if st[S_HAVE] == 0.0:  # a failed step left a trial's evaluation in the scratch
             if sy.laws:
                 self._numeric_k(S)

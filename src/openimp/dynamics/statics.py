@@ -448,3 +448,35 @@ def _choose(nF: int, FF: np.ndarray, KFF: np.ndarray, x0: np.ndarray, A: np.ndar
     for a in range(nF):
         step[a] = mu * FF[a]
     return DESCENT
+
+
+@njit(nrt=False)
+def search_loop(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | None,
+                opts: np.ndarray, state: np.ndarray, bufs: tuple, work: tuple,
+                max_steps: int, hist: np.ndarray, counts: np.ndarray) -> int:
+    """:func:`search_step` until the search ends (a model without load laws: one compiled
+    call per search).  At most ``max_steps`` steps; at most 4 of them leave an unstable
+    equilibrium.  hist (max_steps, 3) receives (kind, largest generalized force, largest
+    change) per step, counts (3,) the steps, escapes and neutral steps.  Returns the
+    code of the last :func:`search_step` (not STEPPED)."""
+    steps = 0
+    escapes = 0
+    neutral = 0
+    while True:
+        opts[O_MAY_STEP] = 1.0 if steps < max_steps else 0.0
+        opts[O_MAY_ESCAPE] = 1.0 if escapes < 4 and steps < max_steps else 0.0
+        code = search_step(KP, DP, YP, ZP, S, gen, opts, state, bufs, work)
+        if code != STEPPED or steps >= hist.shape[0]:  # (the second: never, by the cap)
+            counts[0] = steps
+            counts[1] = escapes
+            counts[2] = neutral
+            return code if code != STEPPED else CAPPED
+        kind = int(state[S_KIND])
+        hist[steps, 0] = kind
+        hist[steps, 1] = state[S_FMAX]
+        hist[steps, 2] = state[S_STEPMAX]
+        steps += 1
+        if kind == ESCAPE:
+            escapes += 1
+        elif kind == NEUTRAL_STEP:
+            neutral += 1
