@@ -876,15 +876,8 @@ def summary(recs: dict) -> dict:
 
 
 def write_section(path: Path, text: str) -> None:
-    """Replace (or append) the section in ``path`` (as the vibration section)."""
-    old = path.read_text() if path.exists() else ""
-    i = old.find(TITLE)
-    if i < 0:
-        new = old.rstrip() + "\n\n" + text
-    else:
-        j = old.find("\n## ", i + len(TITLE))
-        new = old[:i] + text + (old[j:] if j >= 0 else "")
-    path.write_text(new)
+    """Replace (or append) the statics section in ``path``."""
+    vib.write_section(path, text, TITLE)
 
 
 def write_json(path: Path, recs: dict) -> None:

@@ -555,14 +555,14 @@ def _checks(case: str, ref: dict) -> str:
     return s + "."
 
 
-def write_section(path: Path, text: str) -> None:
-    """Replace (or append) the section in ``path``."""
+def write_section(path: Path, text: str, title: str = TITLE) -> None:
+    """Replace (or append) the section ``title`` in ``path`` by ``text``."""
     old = path.read_text() if path.exists() else ""
-    i = old.find(TITLE)
+    i = old.find(title)
     if i < 0:
         new = old.rstrip() + "\n\n" + text
     else:
-        j = old.find("\n## ", i + len(TITLE))
+        j = old.find("\n## ", i + len(title))
         new = old[:i] + text + (old[j:] if j >= 0 else "")
     path.write_text(new)
 
