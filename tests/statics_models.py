@@ -24,7 +24,7 @@ import math
 import numpy as np
 
 import openimp
-from test_forces import Ref, Spec
+from test_forces import Ref, Spec, slider_crank_joints
 
 G = 9.81
 DEG = math.pi / 180
@@ -177,15 +177,7 @@ def slider_crank(P: float = 1000.0, e: float = 0.0, spring: tuple | None = None,
     a spring k1 in E (free at 0) and a point spring k2 (free length l0) from the block
     at the piston pin to the ground point (xg, e): at piston x the energy of the two is
     1/2 k1 u^2 + 1/2 k2 (xg - x - u - l0)^2 (while xg > x + u)."""
-    a, b, th0 = SC["a"], SC["b"], SC["th0"]
-    B = a * np.array([math.cos(th0), math.sin(th0), 0.0])
-    C = np.array([B[0] + math.sqrt(b * b - (e - B[1]) ** 2), e, 0.0])
-    s = Spec(openimp.Model("slider-crank 12.1"))
-    s.joint("A", "BASE", "CRANK", np.zeros(3))
-    s.joint("B", "CRANK", "ROD", B)
-    s.joint("C", "ROD", "SLIDER", C)
-    s.joint("D", "BASE", "SLIDER", (0.0, e, 0.0), (1.0, 0.0, 0.0), kind="prismatic",
-            ref=(0.0, 1.0, 0.0), origin2=C)
+    s, B, C = slider_crank_joints("slider-crank 12.1", SC["a"], SC["b"], e, SC["th0"])
     s.add_mass("CRANK", 1.0, 0.5 * B + np.array([0.0, 0.05, 0.0]), np.diag([0.02, 0.08, 0.09]))
     s.add_mass("ROD", 2.0, 0.5 * (B + C), np.diag([0.02, 1.5, 1.52]))
     s.add_mass("SLIDER", 3.0, C + np.array([0.05, 0.02, 0.0]), np.diag([0.01, 0.02, 0.025]))

@@ -390,20 +390,28 @@ def arm(loads: bool = True) -> Spec:
     return s
 
 
-def slider_crank() -> Spec:
-    """Offset slider-crank: crank a = 1 (A BASE->CRANK), rod b = 3.5 (B CRANK->ROD), pin
-    C ROD->SLIDER, prismatic D BASE->SLIDER along X on the line y = e = 0.4; masses on
-    the three links, gravity -Y, a spring in the slider joint and a point spring from
-    the rod to the ground."""
-    a, b, e, th0 = 1.0, 3.5, 0.4, 30 * DEG
+def slider_crank_joints(name: str, a: float, b: float, e: float, th0: float
+                        ) -> tuple[Spec, np.ndarray, np.ndarray]:
+    """The joints of a slider-crank: crank a (A BASE->CRANK, from the origin at angle
+    th0), rod b (B CRANK->ROD), pin C ROD->SLIDER, prismatic D BASE->SLIDER along X on
+    the line y = e.  Returns the spec and the pins B and C."""
     B = a * np.array([math.cos(th0), math.sin(th0), 0.0])
     C = np.array([B[0] + math.sqrt(b * b - (e - B[1]) ** 2), e, 0.0])
-    s = Spec(openimp.Model("slider-crank"))
+    s = Spec(openimp.Model(name))
     s.joint("A", "BASE", "CRANK", np.zeros(3))
     s.joint("B", "CRANK", "ROD", B)
     s.joint("C", "ROD", "SLIDER", C)
     s.joint("D", "BASE", "SLIDER", (0.0, e, 0.0), (1.0, 0.0, 0.0), kind="prismatic",
             ref=(0.0, 1.0, 0.0), origin2=C)
+    return s, B, C
+
+
+def slider_crank() -> Spec:
+    """Offset slider-crank: crank a = 1 (A BASE->CRANK), rod b = 3.5 (B CRANK->ROD), pin
+    C ROD->SLIDER, prismatic D BASE->SLIDER along X on the line y = e = 0.4; masses on
+    the three links, gravity -Y, a spring in the slider joint and a point spring from
+    the rod to the ground."""
+    s, B, C = slider_crank_joints("slider-crank", 1.0, 3.5, 0.4, 30 * DEG)
     s.add_mass("CRANK", 1.5, 0.4 * B, inertia(0.01, 0.12, 0.13, (0, 0, 1), 0.2))
     s.add_mass("ROD", 2.0, 0.6 * B + 0.4 * C + [0.0, 0.1, 0.0],
                inertia(0.02, 2.0, 2.02, (0.1, 0.2, 1), 0.3))

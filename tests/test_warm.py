@@ -149,40 +149,28 @@ def kernel(name: str, module: str):
     return types.SimpleNamespace(py_func=fn)
 
 
-def test_announcer_names_the_linearization_kernels():
-    """The linearization kernel is its own group; the force stages it compiles inside it
-    (nested compiles) do not announce the force kernels."""
+@pytest.mark.parametrize("kern, module, nested, nested_module, group, seconds", [
+    ("linearize_kernel", "openimp.dynamics.linear", "mass_matrix", "openimp.dynamics.inertia",
+     "linearization", "LINEAR_COMPILE_SECONDS"),
+    ("search_step", "openimp.dynamics.statics", "load_stiffness", "openimp.dynamics.linear",
+     "equilibrium", "STATIC_COMPILE_SECONDS"),
+])
+def test_announcer_names_its_own_group(kern, module, nested, nested_module, group, seconds):
+    """The linearization kernel and the equilibrium search are groups of their own, said
+    with their expected time; the stages they compile inside them (nested compiles) do
+    not announce their own groups (the force kernels, the linearization)."""
     import io as _io
 
     buf = _io.StringIO()
     talk = _warm.Announcer(buf, live=False)
     talk._on_start(kernel("sweep_steps", "openimp.kinematics.sweep"))
     talk.depth -= 1
-    talk._on_start(kernel("linearize_kernel", "openimp.dynamics.linear"))
-    talk._on_start(kernel("mass_matrix", "openimp.dynamics.inertia"))  # nested
+    talk._on_start(kernel(kern, module))
+    talk._on_start(kernel(nested, nested_module))  # nested
     talk.depth -= 2
     talk.close()
     lines = buf.getvalue().splitlines()
     assert len(lines) == 3, lines
-    assert "compiling the linearization kernels too" in lines[1]
-    assert f"about {_warm.LINEAR_COMPILE_SECONDS} s" in lines[1]
+    assert f"compiling the {group} kernels too" in lines[1]
+    assert f"about {getattr(_warm, seconds)} s" in lines[1]
     assert "2 kernels compiled" in lines[2]
-
-
-def test_announcer_names_the_equilibrium_kernels():
-    """The equilibrium search is its own group: a static run says it compiles the
-    equilibrium kernels, with their expected time, not the force kernels."""
-    import io as _io
-
-    buf = _io.StringIO()
-    talk = _warm.Announcer(buf, live=False)
-    talk._on_start(kernel("sweep_steps", "openimp.kinematics.sweep"))
-    talk.depth -= 1
-    talk._on_start(kernel("search_step", "openimp.dynamics.statics"))
-    talk._on_start(kernel("load_stiffness", "openimp.dynamics.linear"))  # nested
-    talk.depth -= 2
-    talk.close()
-    lines = buf.getvalue().splitlines()
-    assert len(lines) == 3, lines
-    assert "compiling the equilibrium kernels too" in lines[1]
-    assert f"about {_warm.STATIC_COMPILE_SECONDS} s" in lines[1]

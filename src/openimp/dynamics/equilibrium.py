@@ -240,15 +240,20 @@ class _Search:
             self.sc.z_law[:] = law_values_at(self.system, S.q[None, :],
                                              np.zeros((1, S.q.size)), self.t)[0]
 
-    def evaluate(self, S: State) -> tuple[np.ndarray, np.ndarray]:
-        """(cols, F) at the posture S.q (assembled or not), without the stiffness."""
+    def _point(self, S: State) -> tuple[int, int, float, float]:
+        """:func:`~openimp.dynamics.statics.static_point` at S.q with the laws' values
+        there, without the stiffness, counted: (nf, rank, potential, load scale)."""
         sy, sc = self.system, self.sc
         self._laws(S)
-        nf = static_point(sy.KP, sc.data.DP, sy.YP, sc.dyn.ZP, S, sy.gen, self.o.pivot_tol,
-                          False, sc.F, sc.K, sc.bufs[6], sc.bufs[7], sc.work)[0]
         self.state[S_EVALS] += 1
+        return static_point(sy.KP, sc.data.DP, sy.YP, sc.dyn.ZP, S, sy.gen, self.o.pivot_tol,
+                            False, sc.F, sc.K, sc.bufs[6], sc.bufs[7], sc.work)
+
+    def evaluate(self, S: State) -> tuple[np.ndarray, np.ndarray]:
+        """(cols, F) at the posture S.q (assembled or not), without the stiffness."""
+        nf = self._point(S)[0]
         self.state[S_HAVE] = 0.0
-        return sc.z_cols[:nf].copy(), sc.F[:nf].copy()
+        return self.sc.z_cols[:nf].copy(), self.sc.F[:nf].copy()
 
     def _numeric_k(self, S: State) -> None:
         """F and K = -dF/dpsi at S.q into the scratch, K by central differences over
@@ -278,11 +283,7 @@ class _Search:
                 Fs.append(F2)
             K[:, j] = -(Fs[0] - Fs[1]) / (2 * H_LAW)
         S.q[:] = q0
-        self._laws(S)
-        nf, rank, pe, scale = static_point(sy.KP, sc.data.DP, sy.YP, sc.dyn.ZP, S, sy.gen,
-                                           self.o.pivot_tol, False, sc.F, sc.K,
-                                           sc.bufs[6], sc.bufs[7], sc.work)
-        self.state[S_EVALS] += 1
+        nf, rank, pe, scale = self._point(S)
         self.state[S_KEVALS] += 1
         sc.cols[:nf] = cols
         sc.K[:nf, :nf] = K

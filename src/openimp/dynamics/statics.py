@@ -393,13 +393,13 @@ def _choose(nF: int, FF: np.ndarray, KFF: np.ndarray, x0: np.ndarray, A: np.ndar
     * otherwise Newton when the energy test passes (12.8: the loads do positive work
       along the step), else steepest descent (12.9) over the length where the
       stiffness says the energy stops falling."""
-    nF1 = nF  # the augmented column
-    # the neutral group's reduced load, paired in order with the columns left
+    # the neutral group's reduced load (the augmented column nF of the rows left), paired
+    # in order with the columns left
     m = 0
     rn = 0.0
     for i in range(nF):
         if rleft[i]:
-            red[m] = A[i, nF1]
+            red[m] = A[i, nF]
             rn += red[m] * red[m]
             m += 1
     unbalanced = False

@@ -310,6 +310,21 @@ def _force_table(sol: Solution, it: Item, request: str, cols: list[str], units: 
     return tables_from_columns(request, f"{it.kind} {it.name}", cols, units, data)
 
 
+def _imp_variable(prep: Prepared, vn: str) -> tuple[int | None, int, str]:
+    """The IMP joint variable that openimp's variable ``vn`` (``"joint.var"``) is: (its
+    index in the IMP joint's variables, or None when the joint has no such IMP variable,
+    its number as IMP prints it, its kind "angle" or "length")."""
+    sy = prep.system
+    joint = vn.split(".", 1)[0]
+    k = sy.var_names[sy.joint_vars(joint)].index(vn)
+    ij = prep.built.joints[joint][0] if joint in prep.built.joints else None
+    if ij is not None:
+        for i, d in enumerate(ij.drive):
+            if d is not None and d[0] == k:
+                return i, i + 1, ij.var_kinds[i]
+    return None, k + 1, sy.var_kinds[sy.var_index(vn)]
+
+
 def _equilibrium_columns(prep: Prepared, sol: Solution, cols: list[str], units: list[str],
                          data: list[np.ndarray]) -> None:
     """The heading table's columns of a static run: every FGC of some step (its IMP joint
@@ -323,18 +338,9 @@ def _equilibrium_columns(prep: Prepared, sol: Solution, cols: list[str], units: 
                 names.append(vn)
     for vn in names:
         joint = vn.split(".", 1)[0]
-        c = sy.var_index(vn)
-        ij = prep.built.joints[joint][0] if joint in prep.built.joints else None
-        imp = [i for i, d in enumerate(ij.drive) if d is not None and
-               d[0] == sy.var_names[sy.joint_vars(joint)].index(vn)] if ij is not None else []
-        if imp:  # the IMP joint variable this openimp variable is (sign, numbering)
-            i = imp[0]
-            pos = _joint_vars(prep, sol, joint)[1][:, i]
-            kind, idx = ij.var_kinds[i], i + 1
-        else:
-            pos = sol.q[:, c]
-            kind = sy.var_kinds[c]
-            idx = sy.var_names[sy.joint_vars(joint)].index(vn) + 1
+        i, idx, kind = _imp_variable(prep, vn)
+        pos = (_joint_vars(prep, sol, joint)[1][:, i] if i is not None
+               else sol.q[:, sy.var_index(vn)])
         free = np.array([vn in sol.fgc[k] for k in range(sol.n)])
         val = np.degrees(pos) if kind == "angle" else pos
         cols.append(f"{joint} {idx}")
@@ -377,19 +383,13 @@ def print_step(prep: Prepared, sol: Solution, k: int, tables: dict[tuple[str, st
             out.append(f"{d.joint} {d.var + 1} user {_f4(pos)} {_f3(v[0, d.var])} "
                        f"{_f3(a[0, d.var])}")
         for vn in sol.fgc[k]:
-            joint, var = vn.split(".", 1)
-            c = prep.system.var_index((joint, var))
-            kind = prep.system.var_kinds[c]
+            joint = vn.split(".", 1)[0]
+            c = prep.system.var_index(vn)
             pos, vel, acc = sol.q[k, c], sol.qd[k, c], sol.qdd[k, c]
-            idx = prep.system.var_names[prep.system.joint_vars(joint)].index(vn) + 1
-            ij = prep.built.joints[joint][0] if joint in prep.built.joints else None
-            imp = [i for i, d in enumerate(ij.drive) if d is not None and d[0] == idx - 1] \
-                if ij is not None else []
-            if imp:  # the IMP joint variable this openimp variable is (sign, numbering)
+            i, idx, kind = _imp_variable(prep, vn)
+            if i is not None:  # the IMP joint variable this openimp variable is (sign)
                 _ij, p, v, a = _joint_vars(prep, sol.rows(k), joint)
-                i = imp[0]
-                pos, vel, acc, idx = p[0, i], v[0, i], a[0, i], i + 1
-                kind = ij.var_kinds[i]
+                pos, vel, acc = p[0, i], v[0, i], a[0, i]
             out.append(f"{joint} {idx} imp {_f4(math.degrees(pos) if kind == 'angle' else pos)}"
                        f" {_f3(vel)} {_f3(acc)}")
         if sol.search is not None and k < len(sol.search) and sol.search[k]:

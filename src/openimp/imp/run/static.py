@@ -103,15 +103,19 @@ def _imp_names(prep: Prepared, drivers: list[Any]) -> tuple[str | None, Any, Any
     if not drivers:
         return "time", None, lambda name: name.split(".")[0]
     d = drivers[0]
-    label = d.joint if d.var == 0 else f"{d.joint} {d.var + 1}"
+    by_col = {prep.system.var_names[x.column]: _imp_label(x) for x in drivers}
+    return _imp_label(d), lambda v: _imp_value(d, v), lambda name: by_col.get(name, name)
 
-    def show(v: float) -> str:
-        v *= d.sign
-        return f"{math.degrees(v):.4f} deg" if d.kind == "angle" else f"{v:.6g}"
 
-    by_col = {prep.system.var_names[x.column]: (x.joint if x.var == 0 else
-                                                 f"{x.joint} {x.var + 1}") for x in drivers}
-    return label, show, lambda name: by_col.get(name, name)
+def _imp_label(d: Any) -> str:
+    """An input as IMP names it: the joint, and the variable number past the first."""
+    return d.joint if d.var == 0 else f"{d.joint} {d.var + 1}"
+
+
+def _imp_value(d: Any, v: float) -> str:
+    """An input's value (openimp units, signed) as IMP gives it: degrees or a length."""
+    v *= d.sign
+    return f"{math.degrees(v):.4f} deg" if d.kind == "angle" else f"{v:.6g}"
 
 
 def _in_imp_terms(text: str, prep: Prepared, drivers: list[Any]) -> str:
@@ -119,12 +123,9 @@ def _in_imp_terms(text: str, prep: Prepared, drivers: list[Any]) -> str:
     (and variable number) and the value in degrees or lengths."""
     for d in drivers:
         name = prep.system.var_names[d.column]
-        label = d.joint if d.var == 0 else f"{d.joint} {d.var + 1}"
 
-        def imp(m: re.Match, d: Any = d, label: str = label) -> str:
-            v = float(m.group(1)) * d.sign
-            return (f"{label} = {math.degrees(v):.4f} deg" if d.kind == "angle"
-                    else f"{label} = {v:.6g}")
+        def imp(m: re.Match, d: Any = d) -> str:
+            return f"{_imp_label(d)} = {_imp_value(d, float(m.group(1)))}"
 
         text = re.sub(re.escape(name) + r" = (-?[0-9.]+(?:e[-+]?[0-9]+)?)", imp, text)
     return text
