@@ -27,6 +27,7 @@ from openimp.dynamics import (
     mode_motion,
     modes,
     modes_along,
+    simulate,
     state_space,
     transfer_function,
 )
@@ -34,10 +35,14 @@ from openimp.errors import AnalysisError, InputError, OpenIMPError
 from openimp.kinematics import BatchResult, sweep, sweep_batch
 from openimp.model import Model
 from openimp.results import (
+    CoordinateSwitch,
+    EnergyAudit,
     Equilibrium,
     EquilibriumPath,
+    Event,
     Forces,
     FrequencyResponse,
+    IntegrationStats,
     Linearization,
     ModeMap,
     Modes,
@@ -62,11 +67,15 @@ def load(path: str, **options: Any) -> Any:
 __all__ = [
     "AnalysisError",
     "BatchResult",
+    "CoordinateSwitch",
+    "EnergyAudit",
     "Equilibrium",
     "EquilibriumPath",
+    "Event",
     "Forces",
     "FrequencyResponse",
     "InputError",
+    "IntegrationStats",
     "Linearization",
     "LoadState",
     "ModeMap",
@@ -89,6 +98,7 @@ __all__ = [
     "mode_motion",
     "modes",
     "modes_along",
+    "simulate",
     "state_space",
     "sweep",
     "sweep_batch",

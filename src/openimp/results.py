@@ -95,6 +95,111 @@ class DriverSwitch:
                 f"travel) to {self.new}, from {self.value:.8g} on")
 
 
+@dataclass
+class CoordinateSwitch:
+    """The free generalized coordinates changed during a time response (book 14.4: the
+    FGCs are chosen again at every step): at ``time`` (s) the set ``old`` became
+    ``new`` (variable names); ``step`` is the first output after it."""
+
+    step: int
+    time: float
+    old: tuple[str, ...]
+    new: tuple[str, ...]
+
+    def __str__(self) -> str:
+        return (f"t = {self.time:.6g} s: free coordinates {', '.join(self.old) or 'none'} -> "
+                f"{', '.join(self.new) or 'none'}")
+
+
+@dataclass
+class Event:
+    """A load law switched at ``time`` (s), located in time: ``name`` the element,
+    ``direction`` +1 when its switching function went from negative to positive."""
+
+    time: float
+    name: str
+    direction: int
+
+    def __str__(self) -> str:
+        way = "rising" if self.direction > 0 else "falling"
+        return f"t = {self.time:.9g} s: {self.name} switched ({way})"
+
+
+@dataclass
+class IntegrationStats:
+    """How a time response was integrated: ``method`` ("rk" or "book"), accepted
+    ``steps``, ``rejected`` attempts, equation ``evaluations``, loop ``closures``,
+    the ``smallest_step`` and ``largest_step`` taken (s), ``forced`` steps taken at
+    the smallest step above the error tolerance, located ``events`` and the wall
+    ``seconds``."""
+
+    method: str
+    steps: int
+    rejected: int
+    evaluations: int
+    closures: int
+    smallest_step: float
+    largest_step: float
+    forced: int
+    events: int
+    seconds: float
+
+
+@dataclass
+class EnergyAudit:
+    """The energy balance of a time response at every output (model units).
+
+    ``kinetic``, ``potential`` (gravity and linear springs); since the start:
+    ``drive_work`` done on the mechanism by the specified coordinates' drives,
+    ``load_work`` done by the loads that have no potential (forces, torques,
+    law elements), ``dissipated`` by the dampers; ``balance`` = (T + V) -
+    (T0 + V0) - drive_work - load_work + dissipated, which the exact motion
+    keeps at zero: it is the integration error.  ``relative`` = |balance| /
+    ``scale``, scale the largest of T, |V - V0| and the works over the run.
+    """
+
+    kinetic: np.ndarray
+    potential: np.ndarray
+    drive_work: np.ndarray
+    load_work: np.ndarray
+    dissipated: np.ndarray
+
+    @property
+    def total(self) -> np.ndarray:
+        """T + V."""
+        return self.kinetic + self.potential
+
+    @property
+    def balance(self) -> np.ndarray:
+        """The energy the integration created (+) or lost (-) since the start."""
+        if self.kinetic.size == 0:
+            return np.zeros(0)
+        e = self.total - self.total[0]
+        return e - self.drive_work - self.load_work + self.dissipated
+
+    @property
+    def scale(self) -> float:
+        """The energy scale of the run (see the class)."""
+        if self.kinetic.size == 0:
+            return 0.0
+        parts = (self.kinetic, self.potential - self.potential[0], self.drive_work,
+                 self.load_work, self.dissipated)
+        return float(max(np.max(np.abs(p)) for p in parts))
+
+    @property
+    def relative(self) -> np.ndarray:
+        """|balance| / scale (0 when nothing moves)."""
+        sc = self.scale
+        return np.abs(self.balance) / sc if sc > 0 else np.zeros_like(self.kinetic)
+
+    def to_table(self) -> dict[str, Any]:
+        """Columns: the energies, the works, the balance and its relative size."""
+        return {"kinetic": self.kinetic, "potential": self.potential,
+                "drive work": self.drive_work, "load work": self.load_work,
+                "dissipated": self.dissipated, "balance": self.balance,
+                "relative": self.relative}
+
+
 def _frozen(a: np.ndarray) -> np.ndarray:
     """``a`` flagged read-only (a cached result handed out many times)."""
     a.setflags(write=False)
@@ -146,6 +251,17 @@ class Trajectory:
         self._cache: dict[str, Any] = {}
         self._bodies: dict[int, tuple[np.ndarray, np.ndarray | None, np.ndarray | None]] = {}
         self._points: dict[int, np.ndarray] = {}
+        # ---- a time response (openimp.simulate) also carries these (None on a sweep)
+        #: the energy audit at every output (:class:`EnergyAudit`)
+        self.energy: EnergyAudit | None = None
+        #: the largest loop-equation residual at every output (internal units)
+        self.closure: np.ndarray | None = None
+        #: how it was integrated (:class:`IntegrationStats`)
+        self.integration: IntegrationStats | None = None
+        #: changes of the free coordinates (:class:`CoordinateSwitch`), in order
+        self.coordinate_switches: list[CoordinateSwitch] = []
+        #: switchings of load laws located in time (:class:`Event`), in order
+        self.events: list[Event] = []
 
     # ------------------------------------------------------------- building
     def set_rates(self, qd: np.ndarray, qdd: np.ndarray, cons: np.ndarray) -> None:

@@ -21,12 +21,16 @@ linearisation, time response) call:
   :func:`equilibria` (ch 12);
 * :mod:`~openimp.dynamics.vibration`: :func:`linearize`, :func:`modes`,
   :func:`transfer_function`, :func:`frequency_response`, :func:`state_space`
-  (ch 11, 13).
+  (ch 11, 13);
+* :mod:`~openimp.dynamics.stepping`, :mod:`~openimp.dynamics.response`: the
+  compiled time stepping (Dormand-Prince and the book's exponential step) and
+  :func:`simulate`, the time response (ch 14).
 """
 
 from openimp.dynamics.analysis import forces
 from openimp.dynamics.equilibrium import equilibria, equilibrium
 from openimp.dynamics.laws import LoadState
+from openimp.dynamics.response import simulate
 from openimp.dynamics.vibration import (
     frequency_response,
     linearize,
@@ -38,5 +42,5 @@ from openimp.dynamics.vibration import (
 )
 
 __all__ = ["LoadState", "equilibria", "equilibrium", "forces", "frequency_response",
-           "linearize", "mode_motion", "modes", "modes_along", "state_space",
-           "transfer_function"]
+           "linearize", "mode_motion", "modes", "modes_along", "simulate",
+           "state_space", "transfer_function"]

@@ -1,0 +1,873 @@
+"""Time response (book ch 14): :func:`simulate`, the Python entry.
+
+The mechanism is released from initial conditions, its specified coordinates
+(SGCs) driven as functions of time, and the equations of motion integrated in
+its free generalized coordinates (FGCs) with the loops closed at every stage
+(:mod:`~openimp.dynamics.stepping`, compiled).  Outputs come at the requested
+times, hit exactly, with the energy audit, the loop-closure residual and the
+quality index at each; a failure keeps every output before it.
+
+Two integrators (``method``):
+
+* ``"rk"`` (default): adaptive Dormand-Prince 5(4), error per step against
+  ``atol + rtol |y|`` on the FGC positions and rates: the accurate one for
+  smooth problems;
+* ``"book"``: the book's locally linearized exact-exponential step (ch 14),
+  controlled by the force error of IMP's ZERO (FORCE): the one for stiff
+  problems (springs far stiffer than the motion needs), whose high
+  frequencies do not set its step.
+
+Without SGC motions and load laws the whole run between outputs is one
+compiled call; otherwise Python drives the same compiled stages step by step
+(the motions and laws are Python callables).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import os
+import sys
+import time as _time
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from typing import Any, TextIO
+
+import numpy as np
+
+from openimp.dynamics import stepping as stp
+from openimp.dynamics.laws import LoadState, law_values_at
+from openimp.errors import AnalysisError, InputError
+from openimp.kinematics.posture import newton
+from openimp.kinematics.track import tracker
+from openimp.motion import as_motion
+from openimp.results import (
+    CoordinateSwitch,
+    EnergyAudit,
+    Event,
+    IntegrationStats,
+    Trajectory,
+)
+from openimp.system import System, make_data, make_dyn_data, make_state
+
+#: methods of :func:`simulate`
+METHODS = ("rk", "book")
+#: the book's "large" displacement of one step (internal units: radians, or lengths with
+#: the bounding-box diagonal 1); section 11.4 of the book: about 0.25
+XMAX = 0.25
+#: Newton iterations allowed to close the loops at a stage (book 6.9: never more than 6)
+MAXIT = 12
+
+
+class _Held:
+    """A coordinate held at a value: position, zero rate and acceleration."""
+
+    def __init__(self, value: float) -> None:
+        self.value = float(value)
+
+    def __call__(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        t = np.asarray(t, dtype=float)
+        return np.full_like(t, self.value), np.zeros_like(t), np.zeros_like(t)
+
+
+# ------------------------------------------------------------------ inputs
+def _positive(name: str, v: Any, allow_zero: bool = False) -> float:
+    try:
+        x = float(v)
+    except (TypeError, ValueError):
+        raise InputError(f"{name} must be a number, got {v!r}") from None
+    if not math.isfinite(x) or x < 0 or (x == 0 and not allow_zero):
+        raise InputError(f"{name} must be a {'non-negative' if allow_zero else 'positive'} "
+                         f"finite number, got {v!r}")
+    return x
+
+
+def output_times(t_final: Any, print_step: Any, times: Any) -> np.ndarray:
+    """The output times: ``times`` as given (increasing, finite, at least two), or 0,
+    print_step, ... up to and including t_final."""
+    if times is not None:
+        if t_final is not None or print_step is not None:
+            raise InputError("give either times= or t_final (with print_step), not both")
+        try:
+            t = np.asarray(times, dtype=float).reshape(-1)
+        except (TypeError, ValueError):
+            raise InputError(f"times must be numbers, got {times!r}") from None
+        if t.size < 2 or not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
+            raise InputError("times must be at least two finite, strictly increasing times "
+                             "(the first is the start)")
+        return t
+    if t_final is None:
+        raise InputError("give the final time (t_final) or the output times (times=)")
+    tf = _positive("t_final", t_final)
+    dt = tf if print_step is None else _positive("print_step", print_step)
+    n = math.floor(tf / dt * (1 + 1e-12))
+    t = np.arange(n + 1) * dt
+    if tf - t[-1] > 1e-9 * dt:
+        t = np.append(t, tf)
+    else:
+        t[-1] = tf
+    return t
+
+
+def _column(system: System, key: Any, what: str) -> int:
+    try:
+        return system.var_index(key)
+    except (KeyError, ValueError, InputError, TypeError, IndexError):
+        raise InputError(f"{what}: {key!r} is not a joint variable of the model (give "
+                         f"'joint' or 'joint.var': {', '.join(system.var_names)})") from None
+
+
+def _mapping(system: System, values: Any, what: str) -> dict[int, float]:
+    """A mapping key -> number as {column: internal value}."""
+    if values is None:
+        return {}
+    if not isinstance(values, Mapping):
+        raise InputError(f"{what} must map joint variables to numbers, e.g. {{'A': 0.5}}")
+    out: dict[int, float] = {}
+    for key, v in values.items():
+        c = _column(system, key, what)
+        try:
+            x = float(v)
+        except (TypeError, ValueError):
+            raise InputError(f"{what}: the value of {key!r} must be a number, got {v!r}") from None
+        if not math.isfinite(x):
+            raise InputError(f"{what}: the value of {key!r} must be finite, got {v!r}")
+        out[c] = x / system.var_scale[c]
+    return out
+
+
+def _motions(system: System, motion: Any) -> tuple[np.ndarray, list[Any]]:
+    """The SGC columns (ascending) and their motions (model units)."""
+    if motion is None:
+        return np.zeros(0, np.int64), []
+    if not isinstance(motion, Mapping):
+        raise InputError("motion must map joint variables to motions of time (or numbers)")
+    rows: dict[int, Any] = {}
+    for key, mo in motion.items():
+        c = _column(system, key, "motion")
+        if c in rows:
+            raise InputError(f"motion: {key!r} is given twice")
+        if isinstance(mo, int | float) and not isinstance(mo, bool):
+            rows[c] = _Held(mo)
+        else:
+            rows[c] = as_motion(mo)
+    cols = np.array(sorted(rows), np.int64)
+    return cols, [rows[int(c)] for c in cols]
+
+
+class _Drive:
+    """The SGC motions evaluated at times, internal units: (times, nS, 3)."""
+
+    def __init__(self, system: System, cols: np.ndarray, motions: list[Any]) -> None:
+        self.cols = cols
+        self.motions = motions
+        self.scale = system.var_scale[cols] if cols.size else np.zeros(0)
+        self.names = [system.var_names[c] for c in cols]
+
+    def at(self, t: np.ndarray, out: np.ndarray) -> None:
+        for s, mo in enumerate(self.motions):
+            try:
+                p, v, a = mo(t)
+            except InputError:
+                raise
+            except Exception as exc:  # the user's function: any failure is bad input
+                raise InputError(f"motion of {self.names[s]}: it failed at t = "
+                                 f"{float(np.max(t)):.6g}: {type(exc).__name__}: {exc}") from None
+            out[:, s, 0] = np.asarray(p, float) / self.scale[s]
+            out[:, s, 1] = np.asarray(v, float) / self.scale[s]
+            out[:, s, 2] = np.asarray(a, float) / self.scale[s]
+        if not np.all(np.isfinite(out)):
+            raise InputError(f"a motion gave a value that is not finite near t = "
+                             f"{float(np.max(t)):.6g}")
+
+
+# ------------------------------------------------------------------ the run
+class _Outputs:
+    """The rows kept at the output times (internal units) and the stream file."""
+
+    def __init__(self, system: System, n: int, keep: bool, stream: Any) -> None:
+        nq = system.nq
+        self.system = system
+        self.keep = keep
+        rows = n if keep else 1
+        self.t = np.zeros(rows)
+        self.q = np.zeros((rows, nq))
+        self.qd = np.zeros((rows, nq))
+        self.qdd = np.zeros((rows, nq))
+        self.fgc = np.zeros((rows, nq), bool)
+        self.quality = np.zeros(rows)
+        self.closure = np.zeros(rows)
+        self.energy = np.zeros((rows, 5))
+        self.count = 0
+        self.stream = _Stream(system, stream) if stream is not None else None
+
+    def add(self, S: Any, w: stp.Work, d_E: np.ndarray) -> None:
+        k = self.count if self.keep else 0
+        e2 = self.system.length_scale ** 2
+        self.t[k] = w.st[stp.T]
+        self.q[k] = w.q0
+        self.qd[k] = w.qd0
+        self.qdd[k] = w.qdd0
+        self.fgc[k] = w.role == 1
+        self.quality[k] = w.st[stp.QUALITY]
+        self.closure[k] = float(np.max(np.abs(d_E))) if d_E.size else 0.0
+        self.energy[k] = (w.ke_pe[0, 0] * e2, w.ke_pe[0, 1] * e2, w.w0[0] * e2, w.w0[1] * e2,
+                          w.w0[2] * e2)
+        if self.stream is not None:
+            self.stream.write(self, k)
+        self.count += 1
+
+    def stored(self) -> int:
+        return self.count if self.keep else min(self.count, 1)
+
+
+class _Stream:
+    """Output rows written to a CSV file as they come (``<path>.part`` while the run
+    goes on, renamed to ``path`` when it ends, complete or not)."""
+
+    def __init__(self, system: System, path: Any) -> None:
+        self.path = os.fspath(path)
+        if not self.path.lower().endswith(".csv"):
+            raise InputError(f"stream must name a .csv file, got {self.path!r}")
+        d = os.path.dirname(os.path.abspath(self.path))
+        if not os.path.isdir(d):
+            raise InputError(f"stream: the folder {d!r} does not exist")
+        self.part = self.path + ".part"
+        self.scale = system.var_scale
+        names = system.var_names
+        head = (["time"] + list(names) + [n + "'" for n in names] + [n + "''" for n in names]
+                + ["kinetic", "potential", "drive work", "load work", "dissipated", "closure",
+                   "quality"])
+        try:
+            self.f: TextIO | None = open(self.part, "w", encoding="utf-8")
+        except OSError as exc:
+            raise InputError(f"stream: cannot write {self.part!r}: {exc.strerror}") from None
+        self.f.write(",".join(head) + "\n")
+
+    def write(self, o: _Outputs, k: int) -> None:
+        assert self.f is not None
+        sc = self.scale
+        row = np.concatenate(([o.t[k]], o.q[k] * sc, o.qd[k] * sc, o.qdd[k] * sc, o.energy[k],
+                              [o.closure[k], o.quality[k]]))
+        self.f.write(",".join(repr(float(x)) for x in row) + "\n")
+        self.f.flush()
+
+    def close(self) -> None:
+        if self.f is not None:
+            self.f.close()
+            self.f = None
+            os.replace(self.part, self.path)
+
+
+class _Progress:
+    """A one-line bar on a terminal (or the user's callable(t, t_final))."""
+
+    def __init__(self, progress: Any, t0: float, tf: float) -> None:
+        self.fn: Callable[[float, float], Any] | None = None
+        self.bar = False
+        self.t0, self.tf = t0, tf
+        self.last = 0.0
+        if callable(progress):
+            self.fn = progress
+        elif progress is None:
+            self.bar = sys.stderr.isatty()
+        elif progress is True:
+            self.bar = True
+        elif progress is not False:
+            raise InputError("progress must be None, True, False or a callable(t, t_final)")
+
+    def __call__(self, t: float, force: bool = False) -> None:
+        if self.fn is not None:
+            self.fn(t, self.tf)
+            return
+        if not self.bar:
+            return
+        now = _time.monotonic()
+        if not force and now - self.last < 0.2:
+            return
+        self.last = now
+        frac = (t - self.t0) / max(self.tf - self.t0, 1e-300)
+        n = int(30 * frac)
+        sys.stderr.write(f"\r  time response [{'#' * n}{'.' * (30 - n)}] t = {t:.4g} s "
+                         f"of {self.tf:.4g}")
+        sys.stderr.flush()
+
+    def done(self) -> None:
+        if self.bar:
+            sys.stderr.write("\n")
+            sys.stderr.flush()
+
+
+class _Laws:
+    """The load laws of a system evaluated at the stage state (Python callables) and
+    their switching functions (a law's ``switch`` attribute)."""
+
+    def __init__(self, system: System, dyn: Any) -> None:
+        self.system = system
+        self.dyn = dyn
+        self.switches = [(slot, name, fn.switch)
+                         for slot, (_, name, fn, _c) in enumerate(system.laws)
+                         if callable(getattr(fn, "switch", None))]
+
+    def set(self, S: Any, t: float) -> None:
+        self.dyn.v.law[:] = law_values_at(self.system, S.q[None, :], S.qd[None, :], t)[0]
+
+    def signs(self, S: Any, t: float) -> np.ndarray:
+        """The switching functions at the state S (model units), one per switching law."""
+        if not self.switches:
+            return np.zeros(0)
+        tr = _state_trajectory(self.system, S)
+        out = np.zeros(len(self.switches))
+        for i, (slot, name, fn) in enumerate(self.switches):
+            x, xd = _law_coordinate(self.system, tr, slot)
+            try:
+                out[i] = float(fn(LoadState(tr, 0, t, x, xd)))
+            except InputError:
+                raise
+            except Exception as exc:
+                raise InputError(f"{name}: its switching function failed at t = {t:.6g}: "
+                                 f"{type(exc).__name__}: {exc}") from None
+        return out
+
+
+def _state_trajectory(system: System, S: Any) -> Trajectory:
+    n = 1
+    tr = Trajectory(system, S.q[None, :].copy(), np.ones(n), np.zeros(n, np.int64),
+                    np.zeros((n, system.nq), bool), np.zeros(n, np.int64), [],
+                    tracker=tracker(system))
+    tr.set_rates(S.qd[None, :].copy(), S.qdd[None, :].copy(), np.zeros(n))
+    return tr
+
+
+def _law_coordinate(system: System, tr: Trajectory, slot: int) -> tuple[float, float]:
+    what, name, _fn, col = system.laws[slot]
+    if col >= 0:
+        return float(tr.q[0, col]), float(tr.qd[0, col])
+    if what in ("spring", "damper"):
+        i = system.elements.index(name)
+        p1, p2 = (system.points[int(p)] for p in system.Y.ept[i, :2])
+        dvec = tr.point(p1)[0] - tr.point(p2)[0]
+        ln = float(np.linalg.norm(dvec))
+        dv = tr.point_velocity(p1)[0] - tr.point_velocity(p2)[0]
+        return ln, float(dvec @ dv / ln) if ln > 0 else 0.0
+    return 0.0, 0.0
+
+
+class _Run:
+    """One integration: the compiled work arrays and the loop around them."""
+
+    def __init__(self, system: System, method: str, drive: _Drive, opts: dict[str, float],
+                 events: bool) -> None:
+        self.system = system
+        self.book = method == "book"
+        self.method = method
+        nq = system.nq
+        self.data = make_data(system, nq)
+        self.dyn = make_dyn_data(system, nq)
+        self.drive = drive
+        self.w = stp.make_work(nq, drive.cols.size, len(system.bodies), len(system.laws))
+        w = self.w
+        L = system.length_scale
+        w.gscale[:] = [L if k == "length" else L * L for k in system.var_kinds]
+        w.scols[:] = drive.cols
+        w.role[drive.cols] = 2
+        st, it = w.st, w.it
+        st[stp.RTOL], st[stp.ATOL] = opts["rtol"], opts["atol"]
+        st[stp.HMIN], st[stp.HMAX] = opts["min_step"], opts["max_step"]
+        st[stp.PTOL], st[stp.CTOL], st[stp.MTOL] = opts["pivot_tol"], opts["tol"], opts["mass_tol"]
+        st[stp.FABS], st[stp.FPCT] = opts["force_abs"], opts["force_pct"]
+        st[stp.XMAX] = XMAX
+        st[stp.SMALLEST], st[stp.LARGEST] = math.inf, 0.0
+        st[stp.HNEXT] = opts["first_step"]
+        it[stp.MAXIT] = MAXIT
+        self.python = bool(drive.cols.size) or bool(system.laws)
+        self.laws = _Laws(system, self.dyn) if system.laws else None
+        self.events_on = events and self.laws is not None and bool(self.laws.switches)
+        self.switches: list[tuple[float, tuple[str, ...], tuple[str, ...]]] = []
+        self.events: list[Event] = []
+        self.k = (system.KP, self.data.DP, system.YP, self.dyn.ZP)
+
+    # ---- the state at the start
+    def start(self, S: Any, t0: float, q_given: dict[int, float], qd_given: dict[int, float],
+              pivot_tol: float, tol: float) -> None:
+        system, w = self.system, self.w
+        KP, DP = self.k[0], self.k[1]
+        self._motion_rows(np.array([t0]))
+        w.ms[:] = w.ms[0]
+        for s, c in enumerate(w.scols):
+            S.q[c] = w.ms[0, s, 0]
+        for c, v in q_given.items():
+            S.q[c] = v
+        S.sgc[:] = False
+        S.sgc[w.scols] = True
+        held = S.sgc.copy()
+        held[list(q_given)] = True
+        S.sgc[:] = held
+        S.t[0] = t0
+        res = newton(KP, DP, S, system.gen, tol, pivot_tol, 50, False)
+        S.sgc[:] = False
+        S.sgc[w.scols] = True
+        if res[0] != 0:
+            given = ", ".join(system.var_names[c] for c in sorted(set(q_given) | set(w.scols)))
+            raise InputError(f"the mechanism cannot be assembled at the start (t = {t0:g} s) "
+                             f"with {given or 'the modeling posture'} as given: change the "
+                             "initial positions")
+        # the FGCs: the coordinates with given rates first, then what the elimination leaves
+        w.role[:] = 0
+        w.role[w.scols] = 2
+        self._choose_start(S, qd_given, pivot_tol)
+        w.st[stp.T] = t0
+        nF = int(w.it[stp.NF])
+        for j in range(nF):
+            c = int(w.fcols[j])
+            w.x0[j] = S.q[c]
+            w.xs[j] = S.q[c]
+            w.vs[j] = qd_given.get(c, 0.0)
+            w.v0[j] = w.vs[j]
+        w.q0[:] = S.q
+        w.qd0[:] = 0.0
+        w.qdd0[:] = 0.0
+        code = self._evaluate_start(S)
+        if code != stp.OK:
+            raise AnalysisError(f"t = {t0:g} s: {self._why(code)}")
+        w.st[stp.QREF] = w.st[stp.QUALITY]
+
+    def _choose_start(self, S: Any, qd_given: dict[int, float], pivot_tol: float) -> None:
+        from openimp.kinematics.elimination import eliminate, jacobian
+        from openimp.kinematics.position import position
+
+        system, w = self.system, self.w
+        DP = self.data.DP
+        position(system.KP, DP, S, system.gen, 1)
+        jacobian(system.KP, DP, S, system.gen)
+        base = S.sgc.copy()
+        if any(c in set(w.scols.tolist()) for c in qd_given):
+            raise InputError("initial rates are given for a driven coordinate: its motion "
+                             "sets its rate")
+        rank0 = eliminate(DP, S.sgc, pivot_tol)[0]
+        if qd_given:
+            S.sgc[list(qd_given)] = True
+            rank1 = eliminate(DP, S.sgc, pivot_tol)[0]
+            if rank1 < rank0:
+                S.sgc[:] = base
+                names = ", ".join(system.var_names[c] for c in sorted(qd_given))
+                raise InputError(f"the initial rates of {names} are not independent (the loops "
+                                 "tie them together): give rates of independent coordinates, "
+                                 "at most as many as the mobility")
+        used = np.zeros(system.nq, bool)
+        used[_pivot_columns(self.data, rank0 if not qd_given else rank1)] = True
+        free = ~(base | used)
+        S.sgc[:] = base
+        cols = np.flatnonzero(free)
+        w.fcols[:cols.size] = cols
+        w.it[stp.NF] = cols.size
+        w.role[cols] = 1
+
+    def _evaluate_start(self, S: Any) -> int:
+        KP, DP, YP, ZP = self.k
+        w, gen = self.w, self.system.gen
+        t = float(w.st[stp.T])
+        st = stp.close_stage(KP, DP, S, gen, w, 0.0, 0)
+        if st != stp.OK:
+            return st
+        if self.laws is not None:
+            st = stp.evaluate(KP, DP, YP, ZP, S, gen, w, 0)  # sets the joint rates
+            if st != stp.OK:
+                return st
+            self.laws.set(S, t)
+        st = stp.evaluate(KP, DP, YP, ZP, S, gen, w, 0)
+        if st == stp.OK:
+            stp.start_state(S, w)
+        return st
+
+    def _motion_rows(self, times: np.ndarray) -> None:
+        if self.drive.cols.size:
+            self.drive.at(times, self.w.ms[:times.size])
+
+    def _why(self, code: int) -> str:
+        return {
+            stp.NO_CLOSURE: "the loops cannot be closed (Newton did not converge): a limit of "
+                            "travel, a singular posture or a motion too fast for the step",
+            stp.SINGULAR_MASS: "the mass matrix of the free coordinates is singular (IMP's ZERO "
+                               "(INERTIA)): a massless part can move alone; give it mass or "
+                               "inertia",
+            stp.LOST_COORDINATES: "the free coordinates no longer describe the mechanism (a "
+                                  "singular posture)",
+            stp.TOO_LARGE: "the step stays too large even at the smallest step",
+        }.get(code, f"the step failed (code {code})")
+
+    # ---- one step driven from Python (motions or laws)
+    def _python_attempt(self, S: Any) -> int:
+        KP, DP, YP, ZP = self.k
+        w, gen = self.w, self.system.gen
+        h = float(w.st[stp.H])
+        t = float(w.st[stp.T])
+        if self.book:
+            self._motion_rows(t + np.array([0.0] * (stp.NSTAGE - 1) + [h]))
+            w.it[stp.WHY] = stp.OK
+            if w.it[stp.HAVE_LIN] == 0:
+                st = stp.book_linearize(KP, DP, YP, ZP, S, gen, w)
+                if st != stp.OK:
+                    w.it[stp.WHY] = st
+                    return stp.FAILED
+            st = stp.book_predict(w)
+            if st == stp.OK:
+                S.t[0] = t + h
+                st = stp.close_stage(KP, DP, S, gen, w, h, stp.NSTAGE - 1)
+            if st == stp.OK:
+                st = self._evaluate(S, t + h, stp.NSTAGE - 1)
+            if st != stp.OK:
+                return self._reject(st, h)
+            return stp.book_finish(S, w)
+        self._motion_rows(t + stp.RK_C * h)
+        w.it[stp.WHY] = stp.OK
+        for i in range(1, stp.NSTAGE):
+            dt = stp.rk_stage_state(w, i)
+            S.t[0] = t + dt
+            st = stp.close_stage(KP, DP, S, gen, w, dt, i)
+            if st == stp.OK:
+                st = self._evaluate(S, t + dt, i)
+            if st != stp.OK:
+                return self._reject(st, h)
+            stp.keep_stage(S, w, i)
+        return stp.rk_finish(S, w)
+
+    def _reject(self, st: int, h: float) -> int:
+        w = self.w
+        w.it[stp.WHY] = st
+        w.st[stp.HNEXT] = 0.5 * h
+        w.it[stp.REJECTS] += 1
+        return stp.REJECTED
+
+    def _evaluate(self, S: Any, t: float, row: int) -> int:
+        KP, DP, YP, ZP = self.k
+        w, gen = self.w, self.system.gen
+        if self.laws is not None:
+            st = stp.evaluate(KP, DP, YP, ZP, S, gen, w, row)
+            if st != stp.OK:
+                return st
+            self.laws.set(S, t)
+        return stp.evaluate(KP, DP, YP, ZP, S, gen, w, row)
+
+    def _python_run(self, S: Any, t_end: float, max_steps: int) -> int:
+        KP, DP = self.k[0], self.k[1]
+        w = self.w
+        taken = 0
+        while w.st[stp.T] < t_end:
+            h = stp.begin_step(w, t_end)
+            last = w.st[stp.T] + h >= t_end
+            snap = self._snapshot() if self.events_on else None
+            g0 = self.laws.signs(S, float(w.st[stp.T])) if self.events_on else None
+            code = self._python_attempt(S)
+            if code == stp.FAILED:
+                return stp.STOPPED
+            if code == stp.REJECTED:
+                if h <= w.st[stp.HMIN] * (1 + 1e-12) or h <= 1e-14 * max(1.0, abs(w.st[stp.T])):
+                    return stp.STOPPED
+                continue
+            if last:
+                w.st[stp.T] = t_end
+            if self.events_on:
+                assert snap is not None and g0 is not None
+                self._locate(S, snap, g0, h)
+            taken += 1
+            if w.st[stp.QUALITY] < 0.5 * w.st[stp.QREF] and stp.choose(KP, DP, S,
+                                                                        self.system.gen, w):
+                return stp.SWITCHED
+            if taken >= max_steps:
+                return stp.CAPPED
+        return stp.REACHED
+
+    # ---- events: a law's switching function changed sign over the step
+    def _snapshot(self) -> list[np.ndarray]:
+        w = self.w
+        return [a.copy() for a in (w.st, w.it, w.role, w.fcols, w.q0, w.qd0, w.qdd0, w.x0,
+                                   w.v0, w.w0, w.kx, w.kv, w.kw, w.ke_pe)]
+
+    def _restore(self, snap: list[np.ndarray]) -> None:
+        w = self.w
+        for dst, src in zip((w.st, w.it, w.role, w.fcols, w.q0, w.qd0, w.qdd0, w.x0, w.v0,
+                             w.w0, w.kx, w.kv, w.kw, w.ke_pe), snap, strict=True):
+            dst[...] = src
+
+    def _take(self, S: Any, snap: list[np.ndarray], h: float) -> np.ndarray | None:
+        """The step of length h from the snapshot, accepted whatever its error; the
+        switching functions at its end (None when it could not be taken)."""
+        self._restore(snap)
+        w = self.w
+        hmin = w.st[stp.HMIN]
+        w.st[stp.HMIN] = h  # accepted whatever its error
+        w.st[stp.H] = h
+        code = self._python_attempt(S)
+        w.st[stp.HMIN] = hmin
+        if code != stp.ACCEPTED:
+            return None
+        assert self.laws is not None
+        return self.laws.signs(S, float(w.st[stp.T]))
+
+    def _locate(self, S: Any, snap: list[np.ndarray], g0: np.ndarray, h: float) -> None:
+        assert self.laws is not None
+        w = self.w
+        t0 = float(snap[0][stp.T])
+        g1 = self.laws.signs(S, float(w.st[stp.T]))
+        changed = np.flatnonzero(np.sign(g0) * np.sign(g1) < 0)
+        if changed.size == 0:
+            return
+        hnext = float(w.st[stp.HNEXT])
+        # the earliest root of the changed functions: Illinois on the step length
+        lo, hi = 0.0, h
+        glo, ghi = g0[changed], g1[changed]
+        tol = 1e-12 * max(1.0, abs(t0)) + 1e-13
+        for _ in range(60):
+            if hi - lo <= tol:
+                break
+            # secant estimate of the first crossing among the changed functions
+            with np.errstate(divide="ignore", invalid="ignore"):
+                cand = lo + (hi - lo) * glo / (glo - ghi)
+            cand = cand[np.isfinite(cand)]
+            hm = float(np.min(cand)) if cand.size else 0.5 * (lo + hi)
+            hm = min(max(hm, lo + 0.01 * (hi - lo)), hi - 0.01 * (hi - lo))
+            gm = self._take(S, snap, hm)
+            if gm is None:
+                hm = 0.5 * (lo + hi)
+                gm = self._take(S, snap, hm)
+                if gm is None:
+                    break
+            gm = gm[changed]
+            if np.any(np.sign(glo) * np.sign(gm) < 0):
+                hi, ghi = hm, gm
+            else:
+                lo, glo = hm, gm
+        g_end = self._take(S, snap, hi)
+        if g_end is None:  # keep the step as first taken
+            g_end = self._take(S, snap, h)
+            hi = h
+        t_ev = t0 + hi
+        for i in changed:
+            if np.sign(g0[i]) * np.sign(g_end[i]) < 0 if g_end is not None else True:
+                name = self.laws.switches[i][1]
+                self.events.append(Event(t_ev, name, 1 if g0[i] < 0 else -1))
+        w.st[stp.HNEXT] = hnext
+        # the law switched: the derivatives of the start are those after the switch
+        code = self._evaluate_start(S)
+        if code != stp.OK:
+            raise AnalysisError(f"t = {t_ev:.9g} s: {self._why(code)}")
+
+    # ---- drive the whole run
+    def advance(self, S: Any, t_end: float, max_steps: int) -> int:
+        KP, DP, YP, ZP = self.k
+        w = self.w
+        while True:
+            if self.python:
+                code = self._python_run(S, t_end, max_steps)
+            else:
+                fn = stp.run_book if self.book else stp.run_rk
+                code = fn(KP, DP, YP, ZP, S, self.system.gen, w, t_end, max_steps)
+            if code != stp.SWITCHED:
+                return code
+            old = self._names_before
+            new = self.fgc_names()
+            self.switches.append((float(w.st[stp.T]), old, new))
+            self._names_before = new
+            if self.laws is not None:  # law values at the start, for the next first stage
+                code = self._evaluate_start(S)
+                if code != stp.OK:
+                    w.it[stp.WHY] = code
+                    return stp.STOPPED
+
+    def fgc_names(self) -> tuple[str, ...]:
+        w = self.w
+        return tuple(self.system.var_names[int(c)] for c in w.fcols[:int(w.it[stp.NF])])
+
+
+def _pivot_columns(data: Any, rank: int) -> np.ndarray:
+    return np.asarray(data.view("pcol")[:rank], np.int64)
+
+
+@contextlib.contextmanager
+def _interruptible() -> Iterator[list[bool]]:
+    flag = [False]
+    try:
+        yield flag
+    except KeyboardInterrupt:
+        flag[0] = True
+
+
+def simulate(
+    system: System,
+    t_final: float | None = None,
+    *,
+    print_step: float | None = None,
+    times: Sequence[float] | np.ndarray | None = None,
+    q0: Any = None,
+    rates: Mapping[Any, float] | None = None,
+    motion: Mapping[Any, Any] | None = None,
+    method: str = "rk",
+    rtol: float = 1e-8,
+    atol: float | None = None,
+    force_tol: tuple[float, float] = (0.1, 1.0),
+    min_step: float = 0.0,
+    max_step: float | None = None,
+    first_step: float | None = None,
+    tol: float = 1e-10,
+    pivot_tol: float = 1e-10,
+    mass_tol: float = 1e-5,
+    events: bool = True,
+    progress: Any = None,
+    stream: Any = None,
+    keep: bool = True,
+    max_steps: int = 10_000_000,
+) -> Trajectory:
+    """The time response of ``system`` (book ch 14): released from its initial
+    conditions, its specified coordinates driven by ``motion``, integrated to the
+    output times with the loops closed at every stage.
+
+    Output times: ``t_final`` with ``print_step`` (0, print_step, ..., t_final), or
+    ``times`` (increasing; the first is the start).  Initial conditions: ``q0``
+    maps joint variables (``"joint"`` or ``"joint.var"``) to positions (model
+    units, radians for angles; the others from the modeling posture, the loops
+    closed with the given ones held) or gives all nq variables; ``rates`` maps
+    coordinates to initial rates: they become free coordinates, the other free
+    coordinates start at rest (IMP's DATA IC).  ``motion`` maps the specified
+    coordinates (SGCs) to motions of time (:mod:`openimp.motion`, a callable
+    ``t -> (position, velocity, acceleration)``, or a number: held).
+
+    ``method``: ``"rk"`` (Dormand-Prince 5(4), ``rtol``/``atol`` per step on the
+    free coordinates' positions and rates, internal units, atol = rtol by
+    default) or ``"book"`` (the book's linearized exponential step with the force
+    error ``force_tol`` = (force in model units, percent), IMP's ZERO (FORCE)).
+    Steps are never longer than ``max_step`` (default the output spacing) nor
+    shorter than ``min_step`` (IMP's DATA TIME minimum). ``tol``: loop closure;
+    ``mass_tol``: the singularity test of the mass matrix (IMP's ZERO (INERTIA)).
+    Load laws with a ``switch`` function are switched at the located instant
+    (``events``).  ``progress``: a bar on a terminal (None: when stderr is one),
+    False, or a callable(t, t_final).  ``stream``: a .csv path receiving every
+    output as it is computed; with ``keep=False`` only the last output stays in
+    memory.
+
+    Returns a :class:`~openimp.results.Trajectory` at the output times with rates,
+    ``energy`` (:class:`~openimp.results.EnergyAudit`), ``closure``, ``quality``,
+    ``coordinate_switches``, ``events`` and ``integration``.  When the run cannot go
+    on, ``message`` says when and why and every output before is kept.
+    """
+    if not isinstance(system, System):
+        raise InputError(f"simulate takes a compiled System, got {type(system).__name__}")
+    if method not in METHODS:
+        raise InputError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
+    tout = output_times(t_final, print_step, times)
+    rt = _positive("rtol", rtol)
+    at = rt if atol is None else _positive("atol", atol)
+    try:
+        fa, fp = (float(x) for x in force_tol)
+    except (TypeError, ValueError):
+        raise InputError(f"force_tol must be (force, percent), got {force_tol!r}") from None
+    if not (fa > 0 and fp > 0 and math.isfinite(fa) and math.isfinite(fp)):
+        raise InputError(f"force_tol: both the force and the percent must be > 0, got "
+                         f"{force_tol!r} (IMP's ZERO (FORCE))")
+    hmin = _positive("min_step", min_step, allow_zero=True)
+    spacing = float(np.min(np.diff(tout)))
+    hmax = spacing if max_step is None else _positive("max_step", max_step)
+    if hmin > hmax:
+        raise InputError(f"min_step {hmin:g} s exceeds the largest step {hmax:g} s (the output "
+                         "spacing or max_step)")
+    h1 = (min(hmax, 1e-3 * max(spacing, 1e-300)) if method == "rk" else hmax) \
+        if first_step is None else _positive("first_step", first_step)
+    for name, v in (("tol", tol), ("pivot_tol", pivot_tol), ("mass_tol", mass_tol)):
+        _positive(name, v)
+    if not isinstance(max_steps, int) or max_steps < 1:
+        raise InputError(f"max_steps must be a positive integer, got {max_steps!r}")
+    if stream is None and not keep:
+        raise InputError("keep=False needs stream= (the outputs must go somewhere)")
+    scols, motions = _motions(system, motion)
+    drive = _Drive(system, scols, motions)
+    q_given = _mapping(system, q0, "q0") if not _is_array(q0) else {}
+    qd_given = _mapping(system, rates, "rates")
+    for c in q_given:
+        if c in set(scols.tolist()):
+            raise InputError(f"q0: {system.var_names[c]} is driven by its motion; its position "
+                             "comes from there")
+    S = make_state(system, _start_q(system, q0), float(tout[0]))
+    opts = {"rtol": rt, "atol": at, "min_step": hmin, "max_step": hmax, "pivot_tol": pivot_tol,
+            "tol": tol, "mass_tol": mass_tol, "force_abs": fa, "force_pct": fp,
+            "first_step": max(h1, hmin)}
+    r = _Run(system, method, drive, opts, bool(events))
+    r.start(S, float(tout[0]), q_given, qd_given, float(pivot_tol), float(tol))
+    r._names_before = r.fgc_names()
+    out = _Outputs(system, tout.size, bool(keep), stream)
+    bar = _Progress(progress, float(tout[0]), float(tout[-1]))
+    residual = r.data.view("E")
+    message = ""
+    wall = _time.perf_counter()
+    switches: list[CoordinateSwitch] = []
+    try:
+        with _interruptible() as stopped:
+            out.add(S, r.w, residual)
+            for k in range(1, tout.size):
+                n_sw = len(r.switches)
+                code = r.advance(S, float(tout[k]), max_steps)
+                for ts, old, new in r.switches[n_sw:]:
+                    switches.append(CoordinateSwitch(out.count, ts, old, new))
+                if code == stp.REACHED:
+                    out.add(S, r.w, residual)
+                    bar(float(tout[k]))
+                    continue
+                tnow = float(r.w.st[stp.T])
+                if code == stp.CAPPED:
+                    message = (f"t = {tnow:.6g} s: more than {max_steps} steps before the output "
+                               f"at {tout[k]:.6g} s; raise max_steps or loosen the tolerance")
+                else:
+                    message = f"t = {tnow:.6g} s: {r._why(int(r.w.it[stp.WHY]))}"
+                break
+        if stopped[0]:
+            message = (f"t = {float(r.w.st[stp.T]):.6g} s: interrupted by the user (Ctrl-C); "
+                       "the outputs before it are kept")
+    except AnalysisError as exc:
+        message = str(exc)
+    finally:
+        bar.done()
+        if out.stream is not None:
+            out.stream.close()
+    seconds = _time.perf_counter() - wall
+    n = out.stored()
+    res = Trajectory(system, out.q[:n].copy(), out.quality[:n].copy(),
+                     np.zeros(n, np.int64), out.fgc[:n].copy(), np.zeros(n, np.int64),
+                     list(drive.names), message, tracker=tracker(system), sgc=_sgc(system, scols))
+    res.set_rates(out.qd[:n].copy(), out.qdd[:n].copy(), np.zeros(n))
+    res.time = out.t[:n].copy()
+    res.closure = out.closure[:n].copy()
+    res.quality_ref = float(out.quality[0]) if n else 0.0
+    e = out.energy[:n]
+    res.energy = EnergyAudit(e[:, 0].copy(), e[:, 1].copy(), e[:, 2].copy(), e[:, 3].copy(),
+                             e[:, 4].copy())
+    res.coordinate_switches = switches
+    res.events = list(r.events)
+    res.interrupted = "interrupted by the user" in message
+    w = r.w
+    res.integration = IntegrationStats(
+        method, int(w.it[stp.STEPS]), int(w.it[stp.REJECTS]), int(w.it[stp.EVALS]),
+        int(w.it[stp.CLOSES]), float(w.st[stp.SMALLEST]) if w.it[stp.STEPS] else 0.0,
+        float(w.st[stp.LARGEST]), int(w.it[stp.FORCED]), len(r.events), seconds)
+    return res
+
+
+def _is_array(q0: Any) -> bool:
+    return q0 is not None and not isinstance(q0, Mapping)
+
+
+def _start_q(system: System, q0: Any) -> np.ndarray:
+    if _is_array(q0):
+        try:
+            q = np.asarray(q0, dtype=float).reshape(-1)
+        except (TypeError, ValueError):
+            raise InputError(f"q0 must map joint variables to numbers or give all "
+                             f"{system.nq} of them") from None
+        if q.shape != (system.nq,) or not np.all(np.isfinite(q)):
+            raise InputError(f"q0 must hold {system.nq} finite numbers, one per joint variable "
+                             f"({', '.join(system.var_names)})")
+        return system.to_internal(q).copy()
+    return system.q0.copy()
+
+
+def _sgc(system: System, scols: np.ndarray) -> np.ndarray:
+    m = np.zeros(system.nq, bool)
+    m[scols] = True
+    return m
