@@ -18,7 +18,10 @@ compiled system as in Pinocchio and MuJoCo::
 from typing import Any
 
 from openimp.dynamics import (
+    BumpStop,
+    LiftOff,
     LoadState,
+    OneWayDamper,
     equilibria,
     equilibrium,
     forces,
@@ -67,6 +70,7 @@ def load(path: str, **options: Any) -> Any:
 __all__ = [
     "AnalysisError",
     "BatchResult",
+    "BumpStop",
     "CoordinateSwitch",
     "EnergyAudit",
     "Equilibrium",
@@ -76,11 +80,13 @@ __all__ = [
     "FrequencyResponse",
     "InputError",
     "IntegrationStats",
+    "LiftOff",
     "Linearization",
     "LoadState",
     "ModeMap",
     "Model",
     "Modes",
+    "OneWayDamper",
     "OpenIMPError",
     "State",
     "StateSpace",

@@ -29,7 +29,7 @@ linearisation, time response) call:
 
 from openimp.dynamics.analysis import forces
 from openimp.dynamics.equilibrium import equilibria, equilibrium
-from openimp.dynamics.laws import LoadState
+from openimp.dynamics.laws import BumpStop, LiftOff, LoadState, OneWayDamper
 from openimp.dynamics.response import simulate
 from openimp.dynamics.vibration import (
     frequency_response,
@@ -41,6 +41,7 @@ from openimp.dynamics.vibration import (
     transfer_function,
 )
 
-__all__ = ["LoadState", "equilibria", "equilibrium", "forces", "frequency_response",
+__all__ = ["BumpStop", "LiftOff", "LoadState", "OneWayDamper",
+           "equilibria", "equilibrium", "forces", "frequency_response",
            "linearize", "mode_motion", "modes", "modes_along", "simulate",
            "state_space", "transfer_function"]

@@ -134,3 +134,59 @@ def law_values_at(system: Any, q: np.ndarray, qd: np.ndarray, t: float) -> np.nd
                     tracker=tracker(system))
     tr.set_rates(qd.copy(), np.zeros_like(qd), np.zeros(n))
     return law_values(system, tr, np.full(n, float(t)))
+
+
+# ----------------------------------------------------------------------------- nonlinear laws
+class BumpStop:
+    """A spring that acts only beyond a limit of its coordinate x (model units): the
+    value ``rate * (x - limit)`` when ``side * (x - limit) > 0``, else 0.
+
+    For a joint spring (``Model.set_joint_spring(..., law=)``) ``side=+1`` stops an
+    increase of the joint variable past ``limit``, ``side=-1`` a decrease; for a
+    point spring (``Model.add_spring(..., law=)``, x its length, the value its
+    tension) ``side=-1`` is a stop in compression, ``side=+1`` a cable.  Its
+    :meth:`switch` is ``side * (x - limit)``: :func:`~openimp.simulate` locates
+    the instant of contact and of release in time.
+    """
+
+    def __init__(self, limit: float, rate: float, side: int = 1) -> None:
+        if side not in (1, -1):
+            raise InputError(f"BumpStop side must be +1 or -1, got {side!r}")
+        self.limit, self.rate, self.side = float(limit), float(rate), int(side)
+        if not (math.isfinite(self.limit) and math.isfinite(self.rate) and self.rate >= 0):
+            raise InputError("BumpStop needs a finite limit and a finite rate >= 0")
+
+    def switch(self, s: LoadState) -> float:
+        """> 0 in contact."""
+        return self.side * (s.x - self.limit)
+
+    def __call__(self, s: LoadState) -> float:
+        return self.rate * (s.x - self.limit) if self.switch(s) > 0 else 0.0
+
+
+class LiftOff(BumpStop):
+    """A spring that only pushes (a tyre on the road, a part resting on a support): a
+    point spring of free length ``free`` whose tension is ``rate * (x - free)`` while
+    compressed (x < free) and 0 once the ends part: the lift-off and the landing
+    are located in time."""
+
+    def __init__(self, free: float, rate: float) -> None:
+        super().__init__(free, rate, side=-1)
+
+
+class OneWayDamper:
+    """A damper with one coefficient for an increasing coordinate (``extension``) and
+    another for a decreasing one (``compression``): the value ``c * xd``.  Its
+    :meth:`switch` is the rate xd, so the change of coefficient is located in time."""
+
+    def __init__(self, extension: float, compression: float = 0.0) -> None:
+        self.ext, self.comp = float(extension), float(compression)
+        if not (math.isfinite(self.ext) and math.isfinite(self.comp)):
+            raise InputError("OneWayDamper needs finite coefficients")
+
+    def switch(self, s: LoadState) -> float:
+        """The rate of the coordinate."""
+        return s.xd
+
+    def __call__(self, s: LoadState) -> float:
+        return (self.ext if s.xd > 0 else self.comp) * s.xd
