@@ -329,6 +329,19 @@ class Trajectory:
         out.singularities = [replace(r, step=r.step - k0, position=r.position - k0)
                              for r in self.singularities if k0 <= r.step < k1]
         out.switches = [replace(w, step=w.step - k0) for w in self.switches if k0 <= w.step < k1]
+        if self.closure is not None:
+            out.closure = self.closure[sl]
+        if self.energy is not None:
+            e = self.energy
+            out.energy = EnergyAudit(e.kinetic[sl], e.potential[sl], e.drive_work[sl],
+                                     e.load_work[sl], e.dissipated[sl])
+        out.integration = self.integration
+        out.coordinate_switches = [replace(c, step=c.step - k0) for c in self.coordinate_switches
+                                   if k0 <= c.step < k1]
+        t0, t1 = ((self.time[k0] if k0 < self.nsteps else math.inf),
+                  (self.time[k1 - 1] if 0 < k1 <= self.nsteps else -math.inf)) \
+            if self.time is not None and self.nsteps else (math.inf, -math.inf)
+        out.events = [e for e in self.events if t0 <= e.time <= t1]
         return out
 
     # ----------------------------------------------------------------- sizes
@@ -595,6 +608,10 @@ class Trajectory:
                 cols[n + "''"] = qdd[:, c]
         cols["quality"] = self.quality
         cols["mobility"] = self.mobility
+        if self.closure is not None:
+            cols["closure"] = self.closure
+        if self.energy is not None:
+            cols.update(self.energy.to_table())
         return cols
 
     def __repr__(self) -> str:
