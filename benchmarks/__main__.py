@@ -395,6 +395,8 @@ def main(argv: list[str] | None = None) -> int:
                    help="skip the linearization/modes benchmark (benchmarks.vibration)")
     p.add_argument("--no-statics", action="store_true",
                    help="skip the static equilibrium benchmark (benchmarks.statics)")
+    p.add_argument("--no-dynamics", action="store_true",
+                   help="skip the time response benchmark (benchmarks.dynamics)")
     p.add_argument("--out", default=None,
                    help="report file (default benchmarks/results.md for a full run, "
                         "benchmarks/results-partial.md for --quick or a subset)")
@@ -467,6 +469,13 @@ def main(argv: list[str] | None = None) -> int:
             st = statics.run_workers(st_repeats)
             st_text = statics.section(st, st_repeats)
             extras["statics"] = statics.summary(st)
+        if "openimp" in tools and not a.no_dynamics:
+            from benchmarks import dynamics
+
+            dy_repeats = 1 if a.quick else 3
+            dy = dynamics.run_workers(dy_repeats)
+            dy_text = dynamics.section(dy, dy_repeats)
+            extras["dynamics"] = dynamics.summary(dy)
 
     from importlib import metadata
 
@@ -486,6 +495,8 @@ def main(argv: list[str] | None = None) -> int:
         text += "\n" + vib_text
     if "statics" in extras:
         text += "\n" + st_text
+    if "dynamics" in extras:
+        text += "\n" + dy_text
     print(text)
     full = (not a.quick and set(cases) == {*CASE_ORDER, "million"}
             and set(tools) == set(TOOL_ORDER))
