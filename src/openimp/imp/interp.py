@@ -918,6 +918,20 @@ class Interpreter:
             raise self.error("DATA IC needs FIND DYNAMICS first (initial conditions are for "
                              "dynamic mode)")
         jd = self._jdef(stmt.fields["joint"])
+        ij = IMP_JOINTS[jd.keyword]
+        pairs = stmt.fields["pairs"]
+        if len(pairs) > ij.nvar:
+            raise self.error(f"joint {jd.name} ({jd.keyword}) has {ij.nvar} variable(s) but "
+                             f"{len(pairs)} position, velocity pairs are given")
+        for k, (pos, vel) in enumerate(pairs):
+            if (pos is not None or vel is not None) and ij.drive[k] is None:
+                raise self.error(f"variable {k + 1} of {jd.keyword} joint {jd.name} cannot take "
+                                 "an initial condition in openimp yet (it is not one of the "
+                                 "solver's coordinates); give NONE, NONE for it")
+            if isinstance(vel, float) and not abs(vel) <= limits.MAX_RATE:
+                raise self.error(f"the initial velocity {limits.number_text(vel)} of joint "
+                                 f"{jd.name} {k + 1} is beyond "
+                                 f"±{limits.number_text(limits.MAX_RATE)} (limit MAX_RATE)")
         self._extra_data(stmt, "ics", jd.name, {"pairs": stmt.fields["pairs"],
                                                 "where": stmt.where},
                          f"Initial conditions of joint {jd.name}")
@@ -1118,6 +1132,13 @@ class Interpreter:
     def _execute(self, stmt: Statement) -> None:
         self._end_store_input()
         st = self.state
+        if st.mode == "dynamic" and st.time is None:
+            fw = st.find_where
+            raise self.error("EXECUTE in dynamic mode (FIND DYNAMICS"
+                             + (f" at {fw[0]}:{fw[1]}" if fw else "") + ") needs DATA TIME = "
+                             "final, minstep, printstep before it (IMP interrupts the run "
+                             "without it); give DATA TIME, or cancel dynamic mode with DELETE "
+                             "DYNAMICS")
         spec = RunSpec(len(self.runs) + 1, st.snapshot(), stmt.where,
                        stmt.keyword == "EXECUTE HOLD", stmt, st.mode)
         self.runs.append(spec)
@@ -1233,6 +1254,7 @@ class Interpreter:
             st.find = None
             st.inputs = {k: v for k, v in st.inputs.items() if v.kind != "MOTION"}
             st.time = None
+            st.time_where = None
         else:  # pragma: no cover
             raise self.error(f"DELETE {kw} is not handled")
 

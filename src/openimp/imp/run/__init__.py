@@ -3,11 +3,13 @@
 * :mod:`~openimp.imp.run.prepare`: the model built and checked, request items,
   what will not be produced, output times (every mode);
 * :mod:`~openimp.imp.run.kinematic`: the kinematic runner (input motions,
-  postures and rates); the static and dynamic runners will sit beside it;
+  postures and rates);
+* :mod:`~openimp.imp.run.static`: the static runner (equilibrium postures);
+* :mod:`~openimp.imp.run.dynamic`: the dynamic runner (the time response);
 * :mod:`~openimp.imp.run.solution`: what a run solved (a trajectory and how
   the run ended);
-* :mod:`~openimp.imp.run.forces`: the force analysis of a solved kinematic run
-  in IMP's kinematic-mode convention (FORCE requests, FORCE(...) in VALUEs);
+* :mod:`~openimp.imp.run.forces`: the force analysis of a solved run in IMP's
+  convention of its mode (FORCE requests, FORCE(...) in VALUEs);
 * :mod:`~openimp.imp.run.vibration`: linearized vibration of a solved
   kinematic run (PRINT FREQUENCY at every position; PRINT, LIST, STORE and
   PLOT DYNAMICS at the last one);

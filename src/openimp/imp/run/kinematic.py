@@ -26,9 +26,8 @@ from typing import Any
 import numpy as np
 
 from openimp.errors import InputError
-from openimp.imp.expr import Expression, SimulationStop
-from openimp.imp.interp import State
-from openimp.imp.run.prepare import Driver, Prepared
+from openimp.imp.expr import SimulationStop
+from openimp.imp.run.prepare import Driver, Prepared, reads_model
 from openimp.imp.run.quantities import _resolver
 from openimp.imp.run.solution import Solution
 from openimp.kinematics import free_coordinate, sweep
@@ -39,26 +38,6 @@ from openimp.results import Trajectory
 _NAN = math.nan
 
 
-
-
-def _value_reads_model(name: str, values: dict[str, Expression], seen: set[str]) -> bool:
-    if name in seen or name not in values:
-        return False
-    seen.add(name)
-    ex = values[name]
-    if any(kind in ("POSITION", "VELOCITY", "ACCEL", "FORCE") for kind, _ in ex.references()):
-        return True
-    return any(_value_reads_model(v, values, seen) for v in ex.value_names())
-
-
-def reads_model(state: State, drivers: list[Driver]) -> bool:
-    """True when a DATA MOTION VALUE reads model quantities (step-by-step driving)."""
-    for d in drivers:
-        if d.inp.kind == "MOTION":
-            m = d.inp.motions[d.var]
-            if isinstance(m, str) and _value_reads_model(m, state.values, set()):
-                return True
-    return False
 
 
 def _const(kind: str, v: float) -> float:

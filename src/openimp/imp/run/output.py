@@ -2,8 +2,8 @@
 tables, PRINT text, listings, pictures and the files the deck asks for.
 
 :data:`SOLVERS` maps a mode to its runner, a function
-``(prepared run, output times, start posture, notes, progress) -> Solution``;
-the static and dynamic runners plug in there.  Everything else here (banners,
+``(prepared run, output times, start posture, notes, progress) -> Solution``
+(kinematic, static and dynamic).  Everything else here (banners,
 tables, listings, graphics, files) is the same for every mode.
 """
 
@@ -24,7 +24,7 @@ from openimp.errors import InputError, OutputError
 from openimp.files import OutputFolder, printable, slug
 from openimp.imp.interp import DEFAULT_TITLE, RunSpec, State, Where, build_model
 from openimp.imp.listing import banner, format_listing, format_store, step_text
-from openimp.imp.run import kinematic, static, vibration
+from openimp.imp.run import dynamic, kinematic, static, vibration
 from openimp.imp.run.forces import safe_compute, wants_forces
 from openimp.imp.run.prepare import (
     Prepared,
@@ -40,6 +40,8 @@ from openimp.imp.run.quantities import (
     _joint_frames,
     _resolver,
     _value_stop,
+    dynamic_tables,
+    integration_lines,
     make_table,
     print_step,
 )
@@ -48,7 +50,8 @@ from openimp.results import Run, Table
 
 #: the runner of each mode: (prepared run, output times, start, notes, progress) -> Solution
 SOLVERS: dict[str, Callable[..., Solution]] = {"kinematic": kinematic.solve,
-                                                "static": static.solve}
+                                                "static": static.solve,
+                                                "dynamic": dynamic.solve}
 
 
 @dataclass
@@ -204,6 +207,7 @@ def execute_run(spec: RunSpec, ctx: Context) -> Run:
         t = make_table(prep, sol, it, notes)
         tables[(it.request.family, it.request.quantity, t.item)] = t
         run.tables.append(t)
+        run.tables.extend(dynamic_tables(sol, it))  # dynamic HEADING: energy, integration
     vib = vibration.analyse(prep, sol, [it for it in items if it.kind in vibration.KINDS],
                             notes)
     run.tables.extend(vib.tables)
@@ -216,6 +220,9 @@ def execute_run(spec: RunSpec, ctx: Context) -> Run:
             for line in print_step(prep, sol, k, tables, print_items):
                 ctx.say(line)
             for line in vib.steps.get(k, []):
+                ctx.say(line)
+        if any(it.kind == "heading" for it in print_items):
+            for line in integration_lines(sol):
                 ctx.say(line)
     for note in notes:
         run.messages.append(note)

@@ -399,8 +399,10 @@ def validate(spec: RunSpec) -> Prepared:
     built = build_model(state, spec.where)
     system = compile_built(built, state, spec.where)
     items, unsupported, skipped = _request_items(state, built)
-    posed = spec.mode in ("kinematic", "static")
+    posed = spec.mode in ("kinematic", "static", "dynamic")
     drivers = _drivers(state, built, system) if posed else []
+    if spec.mode == "dynamic":
+        _check_dynamic_inputs(state, built, drivers)
     freedom = (0, 0)
     if drivers:
         cols = np.array([d.column for d in drivers], np.int64)
@@ -423,6 +425,47 @@ def validate(spec: RunSpec) -> Prepared:
     return prep
 
 
+def _value_reads_model(name: str, values: dict[str, Any], seen: set[str]) -> bool:
+    if name in seen or name not in values:
+        return False
+    seen.add(name)
+    ex = values[name]
+    if any(kind in ("POSITION", "VELOCITY", "ACCEL", "FORCE") for kind, _ in ex.references()):
+        return True
+    return any(_value_reads_model(v, values, seen) for v in ex.value_names())
+
+
+def reads_model(state: State, drivers: list[Driver]) -> bool:
+    """True when a DATA MOTION VALUE reads model quantities (step-by-step driving)."""
+    for d in drivers:
+        if d.inp.kind == "MOTION":
+            m = d.inp.motions[d.var]
+            if isinstance(m, str) and _value_reads_model(m, state.values, set()):
+                return True
+    return False
+
+
+def _check_dynamic_inputs(state: State, built: Built, drivers: list[Driver]) -> None:
+    """The inputs of a dynamic run that only the run's model can check: a DATA MOTION
+    VALUE must be a function of time (the integrator is given the motions in advance),
+    and every VALUE of a DATA IC must be defined by EXECUTE."""
+    for d in drivers:
+        if reads_model(state, [d]):
+            raise InputError(f"DATA MOTION statement: VALUE {d.inp.motions[d.var]} of joint "
+                             f"{d.joint} reads the model (POSITION, VELOCITY, ACCEL or FORCE); "
+                             "in dynamic mode an input motion is a function of time only "
+                             "(T), which openimp integrates with", d.inp.where)
+    for joint, ic in state.extras.get("ics", {}).items():
+        if joint not in built.joints:
+            continue
+        for pair in ic["pairs"]:
+            for x in pair:
+                if isinstance(x, str) and x not in state.values:
+                    raise InputError(f"DATA IC statement: VALUE {x} is not defined by EXECUTE; "
+                                     f"define it with VALUE ({x}) = ... before EXECUTE",
+                                     ic["where"])
+
+
 def _freedom(system: Any, cols: np.ndarray, pivot_tol: float) -> tuple[int, int]:
     """(mobility, number of FGCs) at the starting posture with the joint variables
     ``cols`` specified (raises InputError as :func:`check_drivers` does)."""
@@ -435,8 +478,8 @@ def _freedom(system: Any, cols: np.ndarray, pivot_tol: float) -> tuple[int, int]
 def not_produced(spec: RunSpec) -> tuple[str | None, list[str]]:
     """What one EXECUTE will not produce, found before anything is solved.
 
-    Returns the reason why the whole run produces nothing (an EXECUTE in a mode
-    openimp has not built), or None, and one located message per request that
+    Returns the reason why the whole run produces nothing (None: every mode is
+    built), and one located message per request that
     the run cannot answer (FORCE of a spring or damper deleted at EXECUTE; a
     FREQUENCY or DYNAMICS request with no free generalized coordinate, a bad
     input, output pair or frequency range).  The run reports
@@ -444,13 +487,6 @@ def not_produced(spec: RunSpec) -> tuple[str | None, list[str]]:
     lists them, so the two never disagree.  Raises :class:`InputError` as
     :func:`validate` does.
     """
-    state = spec.state
-    if spec.mode == "dynamic":
-        fw = state.find_where
-        return (f"{spec.where[0]}:{spec.where[1]}: EXECUTE in dynamic mode "
-                f"(FIND {state.find}" + (f" at {fw[0]}:{fw[1]}" if fw else "")
-                + "): dynamic (time response) analysis is not built yet in openimp; this "
-                "run produces no results"), []
     prep = validate(spec)
     return None, list(prep.skipped)
 

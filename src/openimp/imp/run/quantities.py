@@ -147,6 +147,7 @@ def _value_stop(prep: Prepared, sol: Solution, notes: list[str]) -> Solution:
         return sol
     k, name, stop = first
     cut = sol.rows(0, k)
+    cut.response = sol.response  # its arrays start at step 0 too
     listed = f"the {k} position(s) before it are listed" if k else "no position is listed"
     text = (f"{stop.where[0]}:{stop.where[1]}: VALUE {name} evaluated {stop.kind} at time "
             f"{sol.times[k]:.6f}: the run stops there ")
@@ -211,6 +212,8 @@ def make_table(prep: Prepared, sol: Solution, it: Item, notes: list[str]) -> Tab
                 data.append(arr)
         if sol.equilibria is not None:  # static mode: the FGCs found and the search steps
             _equilibrium_columns(prep, sol, cols, units, data)
+        elif sol.response is not None:  # dynamic mode: the FGCs integrated
+            _free_columns(prep, sol, cols, units, data, rates=True)
         return tables_from_columns(request, "generalized coordinates", cols, units, data)
     if it.kind == "value":
         vals = _values(prep, sol, it.name, notes)
@@ -325,11 +328,11 @@ def _imp_variable(prep: Prepared, vn: str) -> tuple[int | None, int, str]:
     return None, k + 1, sy.var_kinds[sy.var_index(vn)]
 
 
-def _equilibrium_columns(prep: Prepared, sol: Solution, cols: list[str], units: list[str],
-                         data: list[np.ndarray]) -> None:
-    """The heading table's columns of a static run: every FGC of some step (its IMP joint
-    variable, degrees or length; NaN at steps where it is not free) and the search
-    steps of every position."""
+def _free_columns(prep: Prepared, sol: Solution, cols: list[str], units: list[str],
+                  data: list[np.ndarray], rates: bool) -> None:
+    """The heading table's columns of every FGC of some step: its IMP joint variable
+    (degrees or length; NaN at steps where it is not free) and, with ``rates``, its
+    velocity and acceleration (a dynamic run integrates them)."""
     sy = prep.system
     names: list[str] = []
     for k in range(sol.n):
@@ -339,17 +342,98 @@ def _equilibrium_columns(prep: Prepared, sol: Solution, cols: list[str], units: 
     for vn in names:
         joint = vn.split(".", 1)[0]
         i, idx, kind = _imp_variable(prep, vn)
-        pos = (_joint_vars(prep, sol, joint)[1][:, i] if i is not None
-               else sol.q[:, sy.var_index(vn)])
-        free = np.array([vn in sol.fgc[k] for k in range(sol.n)])
-        val = np.degrees(pos) if kind == "angle" else pos
-        cols.append(f"{joint} {idx}")
-        units.append(_ANG_UNITS["POSITION"] if kind == "angle" else _LEN)
-        data.append(np.where(free, val, np.nan))
+        if i is not None:  # the IMP joint variable this openimp variable is (sign)
+            _ij, p, v, a = _joint_vars(prep, sol, joint)
+            pva = (p[:, i], v[:, i], a[:, i])
+        else:
+            c = sy.var_index(vn)
+            pva = (sol.q[:, c], sol.qd[:, c], sol.qdd[:, c])
+        free = np.array([vn in sol.fgc[k] for k in range(sol.n)], bool)
+        u = _ANG_UNITS if kind == "angle" else _LEN_UNITS
+        pos = np.degrees(pva[0]) if kind == "angle" else pva[0]
+        parts = [("", pos, "POSITION"), (" vel", pva[1], "VELOCITY"),
+                 (" acc", pva[2], "ACCEL")][:3 if rates else 1]
+        for lab, arr, key in parts:
+            cols.append(f"{joint} {idx}{lab}")
+            units.append(u[key])
+            data.append(np.where(free, arr, np.nan))
+
+
+def _equilibrium_columns(prep: Prepared, sol: Solution, cols: list[str], units: list[str],
+                         data: list[np.ndarray]) -> None:
+    """The heading table's columns of a static run: every FGC of some step (its IMP joint
+    variable, degrees or length; NaN at steps where it is not free) and the search
+    steps of every position."""
+    _free_columns(prep, sol, cols, units, data, rates=False)
     steps = [e.steps for e in sol.equilibria.steps if e.converged][:sol.n]
     cols.append("Search steps")
     units.append("")
     data.append(np.asarray(steps, float))
+
+
+#: the energy audit of a dynamic run (:class:`openimp.results.EnergyAudit`): its columns
+ENERGY_COLUMNS = (("Kinetic", "kinetic"), ("Potential", "potential"),
+                  ("Drive work", "drive_work"), ("Load work", "load_work"),
+                  ("Dissipated", "dissipated"), ("Balance", "balance"))
+_ENERGY = "force*length"
+
+
+def dynamic_tables(sol: Solution, it: Item) -> list[Table]:
+    """The tables a HEADING request adds in dynamic mode: the energy audit at every
+    output time (item ``energy``) and the integration statistics (item
+    ``integration``, one row at the last time reached)."""
+    res = sol.response
+    if res is None or it.kind != "heading":
+        return []
+    out = []
+    n = sol.n
+    if res.energy is not None:
+        e = res.energy
+        cols, units = ["Time"], ["s"]
+        data: list[np.ndarray] = [sol.times]
+        for lab, attr in ENERGY_COLUMNS:
+            cols.append(lab)
+            units.append(_ENERGY)
+            data.append(np.asarray(getattr(e, attr), float)[:n])
+        out.append(tables_from_columns(it.request.keyword, "energy", cols, units, data))
+    st = res.integration
+    if st is not None:
+        t_end = sol.times[-1] if n else math.nan
+        cols = ["Time", "Steps", "Rejected", "Evaluations", "Closures", "Smallest step",
+                "Largest step", "Events", "Seconds"]
+        units = ["s", "", "", "", "", "s", "s", "", "s"]
+        row = [t_end, st.steps, st.rejected, st.evaluations, st.closures, st.smallest_step,
+               st.largest_step, st.events, st.seconds]
+        out.append(tables_from_columns(it.request.keyword, "integration", cols, units,
+                                       [np.array([float(x)]) for x in row]))
+    return out
+
+
+def energy_line(sol: Solution, k: int) -> str | None:
+    """The PRINT HEADING line of the energy audit at step ``k`` of a dynamic run."""
+    res = sol.response
+    if res is None or res.energy is None or k >= len(res.energy.kinetic):
+        return None
+    e = res.energy
+    parts = [f"{lab.lower()} {float(getattr(e, attr)[k]):.6g}" for lab, attr in ENERGY_COLUMNS]
+    return "Energy: " + ", ".join(parts) + "."
+
+
+def integration_lines(sol: Solution) -> list[str]:
+    """The PRINT HEADING lines after a dynamic run: how it was integrated and the
+    relative energy balance."""
+    res = sol.response
+    if res is None or res.integration is None:
+        return []
+    st = res.integration
+    out = [f"Integration ({st.method}): {st.steps} steps, {st.rejected} rejected, "
+           f"{st.evaluations} evaluations, {st.closures} loop closures, steps from "
+           f"{st.smallest_step:.3g} to {st.largest_step:.3g} s, {st.events} events, "
+           f"{st.seconds:.3g} s."]
+    if res.energy is not None and len(res.energy.relative):
+        worst = float(np.nanmax(np.abs(res.energy.relative))) if sol.n else math.nan
+        out.append(f"Energy balance: largest |balance| / energy scale = {worst:.2e}.")
+    return out
 
 
 def _magnitude(v: Any) -> float:
@@ -396,6 +480,9 @@ def print_step(prep: Prepared, sol: Solution, k: int, tables: dict[tuple[str, st
             out.append(sol.search[k])
         out.append(f"Degree of freedom = {int(sol.mobility[k])}. Quality index = "
                    f"{sol.quality[k]:.2e} with {int(sol.iterations[k])} iterations.")
+        energy = energy_line(sol, k)
+        if energy is not None:
+            out.append(energy)
     for q, title in (("POSITION", "Position Results:"), ("VELOCITY", "Velocity Results:"),
                      ("ACCEL", "Acceleration Results:")):
         its = [it for it in items if it.request.quantity == q and it.kind != "heading"]

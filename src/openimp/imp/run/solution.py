@@ -26,7 +26,8 @@ class Solution:
     every solved step; ``message``: why the run stopped early ("" when it did
     not); ``interrupted``: the user pressed Ctrl-C; ``stop``: what IMP says
     when a VALUE evaluated RETURN or END; ``end``: END was evaluated, no
-    further EXECUTE runs; ``forces``: the loads, once computed.
+    further EXECUTE runs; ``forces``: the loads, once computed; ``response``:
+    the time response of a dynamic run.
     """
 
     traj: Trajectory
@@ -42,6 +43,10 @@ class Solution:
     #: steps.") and the :class:`~openimp.results.EquilibriumPath`
     search: list[str] | None = None
     equilibria: Any = None
+    #: dynamic mode: the time response (:func:`openimp.simulate`'s trajectory, with its
+    #: energy audit, integration statistics, coordinate switches and events); its arrays
+    #: run over the output times from the first step of the run
+    response: Any = None
 
     @classmethod
     def of(cls, parts: Sequence[Trajectory], empty: Trajectory, times: np.ndarray,

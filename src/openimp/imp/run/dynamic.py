@@ -1,0 +1,311 @@
+"""The dynamic runner: the time response of a deck (FIND DYNAMICS, book ch 14).
+
+For every EXECUTE in dynamic mode:
+
+1. ``DATA TIME = final, minstep, printstep`` (required; the interpreter refuses
+   an EXECUTE without it) gives the output times, as in the other modes
+   (``t0, t0 + printstep, ...`` up to ``final``; ``t0`` is 0, or the time an
+   EXECUTE HOLD reached) and the smallest step of the integrator;
+2. ``DATA MOTION`` gives the SGCs, driven in time: a number is held (degrees or
+   lengths), a VALUE is a function of time whose value and two derivatives
+   are the position, velocity and acceleration (radians for angles);
+3. ``DATA IC (joint) = pos, vel; ...`` gives the initial positions (degrees or
+   lengths; a VALUE in radians), held while the loops are closed at the start,
+   and the initial rates (rad/s or length/s); ``NONE`` leaves a member out;
+   FGCs without an IC start at rest (IMP's rule);
+4. :func:`openimp.simulate` integrates with :data:`METHOD`, IMP's ZERO (FORCE)
+   as its step control, ZERO (INERTIA) as its mass-matrix test and ZERO
+   (POSITION) / ZERO (SYSTEM) as in the other runners.  ZERO (SPRING) has
+   nothing to act on: IMP only warned about a singular stiffness matrix, and
+   the integrator never inverts one; the run says so when the deck gives it.
+
+A failure of the integration (a singular mass matrix, loops that cannot be
+closed) stops the run with its message; every output before it is kept.  The
+trajectory then goes through the same tables, PRINT text, force analysis (in
+IMP's dynamic-mode convention) and pictures as the other modes.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from openimp.errors import AnalysisError, InputError
+from openimp.imp.expr import Expression, SimulationStop
+from openimp.imp.run.kinematic import Motions, _halted
+from openimp.imp.run.prepare import Driver, Prepared
+from openimp.imp.run.quantities import _imp_variable
+from openimp.imp.run.solution import Solution
+from openimp.kinematics.track import tracker
+from openimp.results import Trajectory
+
+#: the integrator of IMP decks: IMP's own, the book's locally linearized steps (ch 14)
+METHOD = "book"
+
+_NAN = math.nan
+
+
+def _time_only(t: float) -> Callable[[str, str | None, int], float]:
+    """A VALUE resolver that knows the time only (the posture is not solved yet)."""
+    def resolve(kind: str, name: str | None, comp: int) -> float:
+        return t if kind == "TIME" else _NAN
+
+    return resolve
+
+
+class ValueMotion:
+    """A DATA MOTION VALUE as a motion of time: ``(p, v, a)`` over an array of times,
+    in the model's units (radians, lengths) and the openimp variable's sign.
+
+    An undefined value or derivative counts as 0 (IMP's rule), said once in
+    ``notes``; a RETURN or END met between output times stops nothing here (the
+    output times were checked before the integration) and counts as 0 too.
+    """
+
+    def __init__(self, prep: Prepared, driver: Driver, notes: list[str]) -> None:
+        self.values: dict[str, Expression] = prep.spec.state.values
+        self.name = str(driver.inp.motions[driver.var])
+        self.sign = driver.sign
+        self.driver = driver
+        self.notes = notes
+        self.told = False
+
+    def _jet(self, t: float) -> tuple[float, float, float]:
+        try:
+            jet = self.values[self.name].derivatives(self.values, _time_only(t))
+        except SimulationStop:
+            return (0.0, 0.0, 0.0)
+        out = tuple(float(x) if math.isfinite(x) else math.nan for x in jet)
+        if not all(math.isfinite(x) for x in out):
+            self._undefined(t)
+            out = tuple(x if math.isfinite(x) else 0.0 for x in out)
+        return out  # type: ignore[return-value]
+
+    def _undefined(self, t: float) -> None:
+        if self.told:
+            return
+        self.told = True
+        w = self.driver.inp.where
+        self.notes.append(f"{w[0]}:{w[1]}: VALUE {self.name} (DATA MOTION of joint "
+                          f"{self.driver.joint}) is undefined at time {t:.6f}; IMP uses 0 for "
+                          "it")
+
+    def __call__(self, t: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Position, velocity and acceleration at the times ``t`` (any shape)."""
+        t = np.asarray(t, dtype=float)
+        out = np.zeros((3, *t.shape))
+        for idx, ti in np.ndenumerate(t):
+            out[(slice(None), *idx)] = self._jet(float(ti))
+        out *= self.sign
+        return out[0], out[1], out[2]
+
+
+def motions(prep: Prepared, notes: list[str]) -> dict[str, Any]:
+    """The SGCs of DATA MOTION as :func:`openimp.simulate` takes them: openimp variable
+    name -> a held number (model units, signed) or a :class:`ValueMotion`."""
+    out: dict[str, Any] = {}
+    for d in prep.drivers:
+        key = prep.system.var_names[d.column]
+        m = d.inp.motions[d.var]
+        if isinstance(m, str):
+            out[key] = ValueMotion(prep, d, notes)
+        else:
+            v = float(m)
+            out[key] = d.sign * (math.radians(v) if d.kind == "angle" else v)
+    return out
+
+
+def _ic_value(prep: Prepared, x: float | str, kind: str, t0: float, where: Any,
+              label: str, notes: list[str]) -> float:
+    """One DATA IC member in model units: a number (degrees for an angle's position) or a
+    VALUE evaluated at the start time (radians); undefined counts as 0, said."""
+    if not isinstance(x, str):
+        return math.radians(float(x)) if kind == "angle" else float(x)
+    values = prep.spec.state.values
+    try:
+        v = float(values[x].evaluate(values, _time_only(t0)))
+    except SimulationStop:
+        v = math.nan
+    if not math.isfinite(v):
+        notes.append(f"{where[0]}:{where[1]}: VALUE {x} ({label}) is undefined at time "
+                     f"{t0:.6f}; 0 is used for it")
+        v = 0.0
+    return v
+
+
+def initial_conditions(prep: Prepared, t0: float, notes: list[str]
+                       ) -> tuple[dict[str, float], dict[str, float]]:
+    """DATA IC as :func:`openimp.simulate` takes them: (positions, rates), openimp
+    variable name -> model units, signed.  An IC on an input motion (an SGC) is not
+    used, with a message: the motion sets that variable."""
+    state = prep.spec.state
+    system = prep.system
+    q0: dict[str, float] = {}
+    rates: dict[str, float] = {}
+    driven = {(d.joint, d.var) for d in prep.drivers}
+    for joint, ic in state.extras.get("ics", {}).items():
+        if joint not in prep.built.joints:
+            continue
+        ij = prep.built.joints[joint][0]
+        start = system.joint_vars(joint).start
+        where = ic["where"]
+        for k, (pos, vel) in enumerate(ic["pairs"]):
+            if pos is None and vel is None:
+                continue
+            if (joint, k) in driven:
+                notes.append(f"{where[0]}:{where[1]}: DATA IC of joint {joint} {k + 1} is not "
+                             "used: that variable is an input motion (DATA MOTION), which "
+                             "sets its position and velocity")
+                continue
+            drive = ij.drive[k]
+            assert drive is not None  # refused when DATA IC was read
+            key = system.var_names[start + drive[0]]
+            kind = ij.var_kinds[k]
+            if pos is not None:
+                q0[key] = drive[1] * _ic_value(prep, pos, kind, t0, where,
+                                               f"initial position of joint {joint} {k + 1}",
+                                               notes)
+            if vel is not None:
+                rates[key] = drive[1] * _ic_value(prep, vel, "rate", t0, where,
+                                                  f"initial velocity of joint {joint} {k + 1}",
+                                                  notes)
+    return q0, rates
+
+
+def _start(prep: Prepared, start: np.ndarray | None, q0: dict[str, float]) -> Any:
+    """The q0 of :func:`openimp.simulate`: the IC positions, or after EXECUTE HOLD the
+    posture reached with the IC positions put in."""
+    if start is None:
+        return q0 or None
+    full = np.array(start, dtype=float)
+    for key, v in q0.items():
+        full[prep.system.var_index(key)] = v
+    return full
+
+
+def _min_step(prep: Prepared, times: np.ndarray, notes: list[str]) -> float:
+    """DATA TIME's smallest step (its second number), at most the output spacing: IMP
+    decks often give the print step there (ch9: 0.0075, 0.00025, 0.00025), which then
+    is every step."""
+    st = prep.spec.state
+    minstep = float(st.time[1]) if st.time is not None else 0.0
+    if len(times) < 2:
+        return 0.0
+    spacing = float(np.min(np.diff(times)))
+    if minstep > spacing * (1.0 + 1e-9):
+        w = st.time_where or prep.spec.where
+        notes.append(f"{w[0]}:{w[1]}: DATA TIME: the smallest step {minstep:g} s is larger "
+                     f"than the print step {spacing:g} s; the print step is used as the "
+                     "smallest step")
+    return min(minstep, spacing)
+
+
+def options(prep: Prepared, times: np.ndarray, notes: list[str]) -> dict[str, Any]:
+    """The tolerances of :func:`openimp.simulate` from the deck's ZERO statements and
+    DATA TIME."""
+    st = prep.spec.state
+    opts: dict[str, Any] = {
+        "method": METHOD,
+        "force_tol": tuple(float(x) for x in st.tolerance("FORCE")),
+        "mass_tol": float(st.tolerance("INERTIA")[0]),
+        "min_step": _min_step(prep, times, notes),
+        "tol": float(st.tolerance("POSITION")[0]) if "POSITION" in st.zero else 1e-10,
+        "pivot_tol": float(st.tolerance("SYSTEM")[0]) if "SYSTEM" in st.zero else 1e-10,
+    }
+    if "SPRING" in st.zero:
+        notes.append(f"ZERO (SPRING) = {st.tolerance('SPRING')[0]:g} is accepted and not "
+                     "needed: IMP only warned about a singular stiffness matrix, and "
+                     "openimp's integrator never inverts one")
+    return opts
+
+
+def _progress(progress: Callable[[int, int], None] | None, times: np.ndarray
+              ) -> Callable[[float, float], None] | bool:
+    """simulate's progress callable (t, t_final) as the runner's (done, total) outputs."""
+    if progress is None:
+        return False
+    n = len(times)
+    t0, span = float(times[0]), float(times[-1] - times[0])
+
+    def told(t: float, _t_final: float) -> None:
+        done = n if span <= 0 else round((n - 1) * (t - t0) / span)
+        progress(min(max(done, 0), n), n)
+
+    return told
+
+
+def _imp_coordinate(prep: Prepared, vn: str) -> str:
+    """An openimp variable in IMP's words: the joint and the variable number."""
+    _i, idx, _kind = _imp_variable(prep, vn)
+    return f"{vn.split('.', 1)[0]} {idx}"
+
+
+def run_notes(prep: Prepared, res: Any) -> list[str]:
+    """The run's messages about the integration: every change of the FGCs and every
+    load-law switching located."""
+    out = []
+    for sw in getattr(res, "coordinate_switches", None) or []:
+        old = ", ".join(_imp_coordinate(prep, v) for v in sw.old) or "none"
+        new = ", ".join(_imp_coordinate(prep, v) for v in sw.new) or "none"
+        out.append(f"time {sw.time:.6f}: the free generalized coordinates change from "
+                   f"{old} to {new}")
+    for ev in getattr(res, "events", None) or []:
+        out.append(f"time {ev.time:.6f}: {ev.name} switches ({ev.direction})")
+    return out
+
+
+def solve(prep: Prepared, times: np.ndarray, start: np.ndarray | None,
+          notes: list[str], progress: Callable[[int, int], None] | None = None) -> Solution:
+    """Integrate a dynamic run over its output times (see the module docstring)."""
+    from openimp.dynamics.response import simulate
+
+    system = prep.system
+    empty = Trajectory.empty(system, tracker(system))
+    pre = Motions(prep, times, notes)  # the motions at the output times: RETURN, END, limits
+    pre.fill(0, len(times), None)
+    n = len(times) if pre.halt is None else pre.halt.step
+    if n == 0:
+        sol = Solution(empty, times[:0])
+        _halted(sol, prep, times, pre)
+        return sol
+    out_times = np.asarray(times[:n], dtype=float)
+    q0, rates = initial_conditions(prep, float(out_times[0]), notes)
+    laws = prep.built.dyn.laws
+    if laws is not None:  # while integrating a VALUE knows the time only
+        laws.times = None
+        laws.resolve_at = None
+    try:
+        res = simulate(system, times=out_times, q0=_start(prep, start, q0), rates=rates or None,
+                       motion=motions(prep, notes) or None,
+                       progress=_progress(progress, out_times),
+                       **options(prep, out_times, notes))
+    except (InputError, AnalysisError) as exc:
+        why = str(exc).rstrip(". ")
+        if not why.startswith("t = "):
+            why = f"the run stopped at the start (time {out_times[0]:.6f}): {why}"
+        return Solution(empty, times[:0], f"{why}. No position was solved")
+    except KeyboardInterrupt:
+        sol = Solution(empty, times[:0], "interrupted by the user (Ctrl-C) before the first "
+                       "output time")
+        sol.interrupted = True
+        return sol
+    if laws is not None:
+        for m in laws.notes:
+            if m not in notes:
+                notes.append(m)
+        laws.notes.clear()
+    notes.extend(run_notes(prep, res))
+    k = res.nsteps
+    message = ""
+    if res.message:
+        kept = (f"the {k} output(s) before it are listed" if k else "no output was reached")
+        message = f"{res.message.rstrip('. ')}; {kept}"
+    sol = Solution(res, np.asarray(out_times[:k], dtype=float), message)
+    sol.response = res
+    sol.interrupted = bool(getattr(res, "interrupted", False))
+    if pre.halt is not None and not message:
+        _halted(sol, prep, times, pre)
+    return sol
