@@ -1019,7 +1019,8 @@ def main(argv: list[str] | None = None) -> int:
     print(f"total {time.perf_counter() - t:.0f} s", file=sys.stderr)
     if not a.no_write and set(tools) == set(TOOLS):
         vib.write_section(Path(a.out), text, TITLE)
-        write_json(Path(a.out).with_suffix(".json"), recs)
+        write_json(Path(a.out).with_suffix(".json"),
+                   dict(recs, meta=dict(info, total_s=time.perf_counter() - t)))
     return 0
 
 
