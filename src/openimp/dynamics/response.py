@@ -56,6 +56,10 @@ METHODS = ("rk", "book")
 XMAX = 0.25
 #: Newton iterations allowed to close the loops at a stage (book 6.9: never more than 6)
 MAXIT = 12
+#: steps per compiled call between progress reports (and chances for Ctrl-C)
+CHUNK_STEPS = 2000
+#: output rows held at once when they are streamed and not kept
+CHUNK_ROWS = 1024
 
 
 class _Held:
@@ -182,42 +186,47 @@ class _Drive:
 
 # ------------------------------------------------------------------ the run
 class _Outputs:
-    """The rows kept at the output times (internal units) and the stream file."""
+    """The output rows: the buffers the compiled run writes (ob, rows from kout[0] -
+    base), kept whole (``keep``) or flushed to the stream chunk by chunk."""
 
-    def __init__(self, system: System, n: int, keep: bool, stream: Any) -> None:
+    def __init__(self, system: System, tout: np.ndarray, keep: bool, stream: Any) -> None:
         nq = system.nq
+        n = tout.size
         self.system = system
+        self.tout = tout
         self.keep = keep
-        rows = n if keep else 1
-        self.t = np.zeros(rows)
-        self.q = np.zeros((rows, nq))
-        self.qd = np.zeros((rows, nq))
-        self.qdd = np.zeros((rows, nq))
-        self.fgc = np.zeros((rows, nq), bool)
-        self.quality = np.zeros(rows)
-        self.closure = np.zeros(rows)
-        self.energy = np.zeros((rows, 5))
-        self.count = 0
+        self.cap = n if keep else min(n, CHUNK_ROWS)
+        cap = self.cap
+        self.ob = (np.zeros(cap), np.zeros((cap, nq)), np.zeros((cap, nq)), np.zeros((cap, nq)),
+                   np.zeros((cap, nq), np.bool_), np.zeros(cap), np.zeros(cap), np.zeros((cap, 5)))
+        self.kout = np.zeros(1, np.int64)
+        self.base = 0
+        self.streamed = 0
+        self.last: tuple[np.ndarray, ...] | None = None
         self.stream = _Stream(system, stream) if stream is not None else None
 
-    def add(self, S: Any, w: stp.Work, d_E: np.ndarray) -> None:
-        k = self.count if self.keep else 0
-        e2 = self.system.length_scale ** 2
-        self.t[k] = w.st[stp.T]
-        self.q[k] = w.q0
-        self.qd[k] = w.qd0
-        self.qdd[k] = w.qdd0
-        self.fgc[k] = w.role == 1
-        self.quality[k] = w.st[stp.QUALITY]
-        self.closure[k] = float(np.max(np.abs(d_E))) if d_E.size else 0.0
-        self.energy[k] = (w.ke_pe[0, 0] * e2, w.ke_pe[0, 1] * e2, w.w0[0] * e2, w.w0[1] * e2,
-                          w.w0[2] * e2)
-        if self.stream is not None:
-            self.stream.write(self, k)
-        self.count += 1
+    @property
+    def count(self) -> int:
+        return int(self.kout[0])
 
-    def stored(self) -> int:
-        return self.count if self.keep else min(self.count, 1)
+    def flush(self) -> None:
+        """Stream the rows written since the last flush; without ``keep`` free the buffer."""
+        upto = self.count - self.base
+        if self.stream is not None:
+            for r in range(self.streamed - self.base, upto):
+                self.stream.write(self.ob, r, self.system.length_scale ** 2)
+            self.streamed = self.count
+        if not self.keep and upto > 0:
+            self.last = tuple(a[upto - 1:upto].copy() for a in self.ob)
+            self.base = self.count
+
+    def rows(self) -> tuple[np.ndarray, ...]:
+        """The kept rows: all of them, or the last one without ``keep``."""
+        if self.keep:
+            return tuple(a[:self.count].copy() for a in self.ob)
+        if self.last is None:
+            return tuple(a[:0].copy() for a in self.ob)
+        return self.last
 
 
 class _Stream:
@@ -243,11 +252,12 @@ class _Stream:
             raise InputError(f"stream: cannot write {self.part!r}: {exc.strerror}") from None
         self.f.write(",".join(head) + "\n")
 
-    def write(self, o: _Outputs, k: int) -> None:
+    def write(self, ob: tuple[np.ndarray, ...], k: int, e2: float) -> None:
         assert self.f is not None
         sc = self.scale
-        row = np.concatenate(([o.t[k]], o.q[k] * sc, o.qd[k] * sc, o.qdd[k] * sc, o.energy[k],
-                              [o.closure[k], o.quality[k]]))
+        t, q, qd, qdd, _fgc, qual, clos, en = ob
+        row = np.concatenate(([t[k]], q[k] * sc, qd[k] * sc, qdd[k] * sc, en[k] * e2,
+                              [clos[k], qual[k]]))
         self.f.write(",".join(repr(float(x)) for x in row) + "\n")
         self.f.flush()
 
@@ -379,10 +389,14 @@ class _Run:
         st[stp.SMALLEST], st[stp.LARGEST] = math.inf, 0.0
         st[stp.HNEXT] = opts["first_step"]
         it[stp.MAXIT] = MAXIT
-        self.python = bool(drive.cols.size) or bool(system.laws)
+        # Python callables (motions, laws) need the stage loop in Python; held
+        # coordinates do not
+        self.python = any(not isinstance(m, _Held) for m in drive.motions) or bool(system.laws)
         self.laws = _Laws(system, self.dyn) if system.laws else None
         self.events_on = events and self.laws is not None and bool(self.laws.switches)
-        self.switches: list[tuple[float, tuple[str, ...], tuple[str, ...]]] = []
+        self.switches: list[tuple[int, float, tuple[str, ...], tuple[str, ...]]] = []
+        self.g_start: np.ndarray | None = None
+        self.mo: np.ndarray | None = None
         self.events: list[Event] = []
         self.k = (system.KP, self.data.DP, system.YP, self.dyn.ZP)
 
@@ -548,15 +562,22 @@ class _Run:
             self.laws.set(S, t)
         return stp.evaluate(KP, DP, YP, ZP, S, gen, w, row)
 
-    def _python_run(self, S: Any, t_end: float, max_steps: int) -> int:
+    def _python_run(self, S: Any, out: _Outputs, max_steps: int) -> int:
+        """:func:`~openimp.dynamics.stepping.run_rk` / ``run_book`` with the stages driven
+        from here (motions at the stage times, law values at every stage, events)."""
         KP, DP = self.k[0], self.k[1]
-        w = self.w
-        taken = 0
-        while w.st[stp.T] < t_end:
+        w, tout, kout = self.w, out.tout, out.kout
+        t_end = float(tout[-1])
+        s0 = int(w.it[stp.STEPS])
+        if self.events_on and self.g_start is None:
+            assert self.laws is not None
+            self.g_start = self.laws.signs(S, float(w.st[stp.T]))
+        while kout[0] < tout.size:
             h = stp.begin_step(w, t_end)
+            if not stp.room(w, tout, kout, out.base, out.cap):
+                return stp.FULL
             last = w.st[stp.T] + h >= t_end
             snap = self._snapshot() if self.events_on else None
-            g0 = self.laws.signs(S, float(w.st[stp.T])) if self.events_on else None
             code = self._python_attempt(S)
             if code == stp.FAILED:
                 return stp.STOPPED
@@ -564,29 +585,59 @@ class _Run:
                 if h <= w.st[stp.HMIN] * (1 + 1e-12) or h <= 1e-14 * max(1.0, abs(w.st[stp.T])):
                     return stp.STOPPED
                 continue
-            if last:
-                w.st[stp.T] = t_end
+            shortened = False
             if self.events_on:
-                assert snap is not None and g0 is not None
-                self._locate(S, snap, g0, h)
-            taken += 1
-            if w.st[stp.QUALITY] < 0.5 * w.st[stp.QREF] and stp.choose(KP, DP, S,
-                                                                        self.system.gen, w):
+                assert snap is not None
+                shortened = self._locate(S, snap, h)
+            if last and not shortened:
+                w.st[stp.T] = t_end
+            if self._outputs(S, out) != stp.OK:
+                return stp.STOPPED
+            if w.st[stp.QUAL0] < 0.5 * w.st[stp.QREF] and stp.choose(KP, DP, S,
+                                                                      self.system.gen, w):
                 return stp.SWITCHED
-            if taken >= max_steps:
+            if w.it[stp.STEPS] - s0 >= max_steps:
                 return stp.CAPPED
         return stp.REACHED
 
+    def _outputs(self, S: Any, out: _Outputs) -> int:
+        """:func:`~openimp.dynamics.stepping.outputs` with the motions and laws here."""
+        w, tout, kout = self.w, out.tout, out.kout
+        t1 = float(w.st[stp.T])
+        while kout[0] < tout.size:
+            tk = float(tout[kout[0]])
+            end = abs(tk - t1) <= 1e-12 * max(1.0, abs(t1))
+            if tk > t1 and not end:
+                break
+            row = int(kout[0]) - out.base
+            if end:
+                stp.record(S, w, out.ob, row, tk, True)
+            else:
+                dt = stp.dense_point(w, tk)
+                if self.mo is not None:
+                    w.ms[0] = self.mo[kout[0]]
+                S.t[0] = tk
+                st = stp.close_stage(self.k[0], self.k[1], S, self.system.gen, w, dt, 0)
+                if st == stp.OK:
+                    st = self._evaluate(S, tk, 0)
+                if st != stp.OK:
+                    w.it[stp.WHY] = st
+                    return st
+                stp.record(S, w, out.ob, row, tk, False)
+            kout[0] += 1
+        return stp.OK
+
     # ---- events: a law's switching function changed sign over the step
     def _snapshot(self) -> list[np.ndarray]:
+        return [a.copy() for a in self._saved()]
+
+    def _saved(self) -> tuple[np.ndarray, ...]:
         w = self.w
-        return [a.copy() for a in (w.st, w.it, w.role, w.fcols, w.q0, w.qd0, w.qdd0, w.x0,
-                                   w.v0, w.w0, w.kx, w.kv, w.kw, w.ke_pe)]
+        return (w.st, w.it, w.role, w.fcols, w.q0, w.qd0, w.qdd0, w.x0, w.v0, w.w0, w.kx, w.kv,
+                w.kw, w.ke_pe, w.xprev, w.vprev, w.aprev, w.wprev, w.pprev)
 
     def _restore(self, snap: list[np.ndarray]) -> None:
-        w = self.w
-        for dst, src in zip((w.st, w.it, w.role, w.fcols, w.q0, w.qd0, w.qdd0, w.x0, w.v0,
-                             w.w0, w.kx, w.kv, w.kw, w.ke_pe), snap, strict=True):
+        for dst, src in zip(self._saved(), snap, strict=True):
             dst[...] = src
 
     def _take(self, S: Any, snap: list[np.ndarray], h: float) -> np.ndarray | None:
@@ -604,14 +655,20 @@ class _Run:
         assert self.laws is not None
         return self.laws.signs(S, float(w.st[stp.T]))
 
-    def _locate(self, S: Any, snap: list[np.ndarray], g0: np.ndarray, h: float) -> None:
-        assert self.laws is not None
+    def _locate(self, S: Any, snap: list[np.ndarray], h: float) -> bool:
+        """Where a switching function changed sign over the step just taken (of length h
+        from the snapshot), take the step again up to the first root (Illinois iterations
+        on the step length, each a step from the snapshot) and record the event; the
+        state is then just past the root.  Returns True when the step was shortened."""
+        assert self.laws is not None and self.g_start is not None
         w = self.w
+        g0 = self.g_start
         t0 = float(snap[0][stp.T])
         g1 = self.laws.signs(S, float(w.st[stp.T]))
         changed = np.flatnonzero(np.sign(g0) * np.sign(g1) < 0)
         if changed.size == 0:
-            return
+            self.g_start = g1
+            return False
         hnext = float(w.st[stp.HNEXT])
         # the earliest root of the changed functions: Illinois on the step length
         lo, hi = 0.0, h
@@ -651,22 +708,27 @@ class _Run:
         code = self._evaluate_start(S)
         if code != stp.OK:
             raise AnalysisError(f"t = {t_ev:.9g} s: {self._why(code)}")
+        self.g_start = self.laws.signs(S, float(w.st[stp.T]))
+        return hi < h
 
     # ---- drive the whole run
-    def advance(self, S: Any, t_end: float, max_steps: int) -> int:
+    def advance(self, S: Any, out: _Outputs, max_steps: int) -> int:
+        """Integrate on, recording outputs, until every output is done (REACHED), the
+        buffer is full (FULL), max_steps were taken (CAPPED) or the run cannot go on
+        (STOPPED); changes of coordinates are recorded on the way."""
         KP, DP, YP, ZP = self.k
         w = self.w
         while True:
             if self.python:
-                code = self._python_run(S, t_end, max_steps)
+                code = self._python_run(S, out, max_steps)
             else:
                 fn = stp.run_book if self.book else stp.run_rk
-                code = fn(KP, DP, YP, ZP, S, self.system.gen, w, t_end, max_steps)
+                code = fn(KP, DP, YP, ZP, S, self.system.gen, w, out.tout, out.kout, out.ob,
+                          out.base, out.cap, max_steps)
             if code != stp.SWITCHED:
                 return code
-            old = self._names_before
             new = self.fgc_names()
-            self.switches.append((float(w.st[stp.T]), old, new))
+            self.switches.append((out.count, float(w.st[stp.T]), self._names_before, new))
             self._names_before = new
             if self.laws is not None:  # law values at the start, for the next first stage
                 code = self._evaluate_start(S)
@@ -765,11 +827,15 @@ def simulate(
                          f"{force_tol!r} (IMP's ZERO (FORCE))")
     hmin = _positive("min_step", min_step, allow_zero=True)
     spacing = float(np.min(np.diff(tout)))
-    hmax = spacing if max_step is None else _positive("max_step", max_step)
+    span = float(tout[-1] - tout[0])
+    # the book's step is at most the output interval (section 14.5); Dormand-Prince steps
+    # over outputs (they are interpolated and closed there)
+    hmax = (spacing if method == "book" else span) if max_step is None else \
+        _positive("max_step", max_step)
     if hmin > hmax:
         raise InputError(f"min_step {hmin:g} s exceeds the largest step {hmax:g} s (the output "
                          "spacing or max_step)")
-    h1 = (min(hmax, 1e-3 * max(spacing, 1e-300)) if method == "rk" else hmax) \
+    h1 = (min(hmax, 1e-3 * span) if method == "rk" else hmax) \
         if first_step is None else _positive("first_step", first_step)
     for name, v in (("tol", tol), ("pivot_tol", pivot_tol), ("mass_tol", mass_tol)):
         _positive(name, v)
@@ -790,30 +856,33 @@ def simulate(
             "tol": tol, "mass_tol": mass_tol, "force_abs": fa, "force_pct": fp,
             "first_step": max(h1, hmin)}
     r = _Run(system, method, drive, opts, bool(events))
+    if r.python and drive.cols.size:  # the motions at the output times, for the outputs
+        r.mo = np.zeros((tout.size, drive.cols.size, 3))
+        drive.at(tout, r.mo)
     r.start(S, float(tout[0]), q_given, qd_given, float(pivot_tol), float(tol))
     r._names_before = r.fgc_names()
-    out = _Outputs(system, tout.size, bool(keep), stream)
+    out = _Outputs(system, tout, bool(keep), stream)
     bar = _Progress(progress, float(tout[0]), float(tout[-1]))
-    residual = r.data.view("E")
     message = ""
     wall = _time.perf_counter()
-    switches: list[CoordinateSwitch] = []
     try:
         with _interruptible() as stopped:
-            out.add(S, r.w, residual)
-            for k in range(1, tout.size):
-                n_sw = len(r.switches)
-                code = r.advance(S, float(tout[k]), max_steps)
-                for ts, old, new in r.switches[n_sw:]:
-                    switches.append(CoordinateSwitch(out.count, ts, old, new))
+            stp.record(S, r.w, out.ob, 0, float(tout[0]), True)
+            out.kout[0] = 1
+            steps0 = 0
+            while True:
+                code = r.advance(S, out, min(CHUNK_STEPS, max_steps - steps0))
+                out.flush()
+                bar(float(r.w.st[stp.T]))
                 if code == stp.REACHED:
-                    out.add(S, r.w, residual)
-                    bar(float(tout[k]))
-                    continue
+                    break
+                steps0 = int(r.w.it[stp.STEPS])
                 tnow = float(r.w.st[stp.T])
+                if code in (stp.CAPPED, stp.FULL) and steps0 < max_steps:
+                    continue
                 if code == stp.CAPPED:
-                    message = (f"t = {tnow:.6g} s: more than {max_steps} steps before the output "
-                               f"at {tout[k]:.6g} s; raise max_steps or loosen the tolerance")
+                    message = (f"t = {tnow:.6g} s: {max_steps} steps taken (max_steps); raise "
+                               "max_steps or loosen the tolerance")
                 else:
                     message = f"t = {tnow:.6g} s: {r._why(int(r.w.it[stp.WHY]))}"
                 break
@@ -824,26 +893,34 @@ def simulate(
         message = str(exc)
     finally:
         bar.done()
+        out.flush()
         if out.stream is not None:
             out.stream.close()
-    seconds = _time.perf_counter() - wall
-    n = out.stored()
-    res = Trajectory(system, out.q[:n].copy(), out.quality[:n].copy(),
-                     np.zeros(n, np.int64), out.fgc[:n].copy(), np.zeros(n, np.int64),
+    return _response(system, r, out, drive, scols, message, _time.perf_counter() - wall)
+
+
+def _response(system: System, r: _Run, out: _Outputs, drive: _Drive, scols: np.ndarray,
+              message: str, seconds: float) -> Trajectory:
+    """The trajectory of the recorded outputs (model units out of the internal rows)."""
+    t, q, qd, qdd, fgc, quality, closure, en = out.rows()
+    n = t.size
+    res = Trajectory(system, q, quality, np.zeros(n, np.int64), fgc, np.zeros(n, np.int64),
                      list(drive.names), message, tracker=tracker(system), sgc=_sgc(system, scols))
-    res.set_rates(out.qd[:n].copy(), out.qdd[:n].copy(), np.zeros(n))
-    res.time = out.t[:n].copy()
-    res.closure = out.closure[:n].copy()
-    res.quality_ref = float(out.quality[0]) if n else 0.0
-    e = out.energy[:n]
+    res.set_rates(qd, qdd, np.zeros(n))
+    res.time = t
+    res.closure = closure
+    res.quality_ref = float(quality[0]) if n else 0.0
+    e = en * system.length_scale ** 2
     res.energy = EnergyAudit(e[:, 0].copy(), e[:, 1].copy(), e[:, 2].copy(), e[:, 3].copy(),
                              e[:, 4].copy())
-    res.coordinate_switches = switches
+    first = out.count - n  # rows dropped without keep
+    res.coordinate_switches = [CoordinateSwitch(max(k - first, 0), ts, old, new)
+                               for k, ts, old, new in r.switches]
     res.events = list(r.events)
     res.interrupted = "interrupted by the user" in message
     w = r.w
     res.integration = IntegrationStats(
-        method, int(w.it[stp.STEPS]), int(w.it[stp.REJECTS]), int(w.it[stp.EVALS]),
+        r.method, int(w.it[stp.STEPS]), int(w.it[stp.REJECTS]), int(w.it[stp.EVALS]),
         int(w.it[stp.CLOSES]), float(w.st[stp.SMALLEST]) if w.it[stp.STEPS] else 0.0,
         float(w.st[stp.LARGEST]), int(w.it[stp.FORCED]), len(r.events), seconds)
     return res

@@ -51,11 +51,12 @@ OK, NO_CLOSURE, SINGULAR_MASS, LOST_COORDINATES, TOO_LARGE = 0, 1, 2, 3, 4
 #: what an attempt decided
 ACCEPTED, REJECTED, FAILED = 0, 1, 2
 #: what a run returned
-REACHED, SWITCHED, STOPPED, CAPPED = 0, 1, 2, 3
+REACHED, SWITCHED, STOPPED, CAPPED, FULL = 0, 1, 2, 3, 4
 
 #: float scalars of w.st
 (T, H, HNEXT, RTOL, ATOL, HMIN, HMAX, PTOL, CTOL, MTOL, FABS, FPCT, FSCALE, KE, PE,
- CLOSURE, QUALITY, SMALLEST, LARGEST, ERR, XMAX, QREF, NST) = range(23)
+ CLOSURE, QUALITY, SMALLEST, LARGEST, ERR, XMAX, QREF, TPREV, CLOS0, QUAL0,
+ NST) = range(26)
 #: integer scalars of w.it
 (NF, NS, STEPS, REJECTS, EVALS, CLOSES, MAXIT, HAVE_K0, HAVE_LIN, WHY, FORCED,
  NIT) = range(12)
@@ -98,7 +99,9 @@ class Work(NamedTuple):
     exponential and scratch; ap (nq,) predicted accelerations; lopts (5,) the
     options of the linearization; lcols (nq,) its column order; iF, iS (nq,)
     the places of the FGCs and SGCs in it; gF (3, nq) the forcing terms;
-    Minv (nq, nq) M_FF^-1.
+    Minv (nq, nq) M_FF^-1.  xprev, vprev, aprev (nq,), wprev, pprev (3,): the FGC
+    positions, rates, accelerations, the works and powers at the start of the
+    step just taken (w.st[TPREV]), for the outputs inside it.
     """
 
     st: np.ndarray
@@ -147,6 +150,11 @@ class Work(NamedTuple):
     iS: np.ndarray
     gF: np.ndarray
     Minv: np.ndarray
+    xprev: np.ndarray
+    vprev: np.ndarray
+    aprev: np.ndarray
+    wprev: np.ndarray
+    pprev: np.ndarray
 
 
 def make_work(nq: int, ns: int, nb: int, nlaw: int) -> Work:
@@ -164,7 +172,8 @@ def make_work(nq: int, ns: int, nb: int, nlaw: int) -> Work:
                 f(nq), f((nq, nq)), f(nq), f(nq), f((nq, nq)), f(3), f(nq),
                 np.zeros(nq, np.bool_), lin, lwork, f((n, n)), f((n, n)), f((n, n)),
                 f((n, n)), f((n, n)), f(nq), f(5), np.zeros(nq, np.int64),
-                np.zeros(nq, np.int64), np.zeros(nq, np.int64), f((3, nq)), f((nq, nq)))
+                np.zeros(nq, np.int64), np.zeros(nq, np.int64), f((3, nq)), f((nq, nq)),
+                f(nq), f(nq), f(nq), f(3), f(3))
 
 
 # ------------------------------------------------------------------ the stage
@@ -343,6 +352,11 @@ def evaluate(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarr
     _powers(KP, DP, YP, ZP, S, nf, cols, w)
     w.st[KE] = ke
     w.st[PE] = pe
+    d = data_views(DP)
+    res = 0.0
+    for r in range(d.E.shape[0]):
+        res = max(res, abs(d.E[r]))
+    w.st[CLOSURE] = res
     return OK
 
 
@@ -365,6 +379,8 @@ def start_state(S: tuple, w: Work) -> None:
         w.kw[0, k] = w.pw[k]
     w.ke_pe[0, 0] = w.st[KE]
     w.ke_pe[0, 1] = w.st[PE]
+    w.st[CLOS0] = w.st[CLOSURE]
+    w.st[QUAL0] = w.st[QUALITY]
     w.it[HAVE_K0] = 1
     w.it[HAVE_LIN] = 0
 
@@ -381,6 +397,8 @@ def choose(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, w: Work) -> b
     Returns True when the set changed."""
     d = data_views(DP)
     nq = S.q.shape[0]
+    for a in range(nq):
+        S.q[a] = w.q0[a]
     position(KP, DP, S, gen, 1)
     jacobian(KP, DP, S, gen)
     rank, quality, _ = eliminate(DP, S.sgc, w.st[PTOL])
@@ -509,8 +527,6 @@ def rk_finish(S: tuple, w: Work) -> int:
         fac = 5.0 if err == 0.0 else min(5.0, max(0.2, 0.9 * err ** -0.2))
         w.st[HNEXT] = h * fac
         _accept(S, w, h)
-        for k in range(3):
-            w.w0[k] = w.ws[k]
         return ACCEPTED
     w.st[HNEXT] = h * max(0.2, 0.9 * err ** -0.2)
     w.it[REJECTS] += 1
@@ -519,7 +535,17 @@ def rk_finish(S: tuple, w: Work) -> int:
 
 @njit(nrt=False, inline="always")
 def _accept(S: tuple, w: Work, h: float) -> None:
-    """The step of length h is taken: S (evaluated at its end) is the next start."""
+    """The step of length h is taken: S (evaluated at its end, works w.ws) is the next
+    start; the old start is kept for the outputs inside the step."""
+    w.st[TPREV] = w.st[T]
+    for j in range(w.it[NF]):
+        w.xprev[j] = w.x0[j]
+        w.vprev[j] = w.v0[j]
+        w.aprev[j] = w.kv[0, j]
+    for k in range(3):
+        w.wprev[k] = w.w0[k]
+        w.pprev[k] = w.kw[0, k]
+        w.w0[k] = w.ws[k]
     w.st[T] += h
     w.it[STEPS] += 1
     w.st[SMALLEST] = min(w.st[SMALLEST], h)
@@ -776,7 +802,7 @@ def book_finish(S: tuple, w: Work) -> int:
         w.st[HNEXT] = h
     # works over the step by the trapezoidal rule on the powers of its two ends
     for k in range(3):
-        w.w0[k] += 0.5 * h * (w.kw[0, k] + w.pw[k])
+        w.ws[k] = w.w0[k] + 0.5 * h * (w.kw[0, k] + w.pw[k])
     _accept(S, w, h)
     return ACCEPTED
 
@@ -841,9 +867,125 @@ def restart(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarra
     return st
 
 
+# ------------------------------------------------------------------ outputs
+@njit(nrt=False)
+def dense_point(w: Work, tk: float) -> float:
+    """The FGC state at tk inside the step just taken, into w.xs, w.vs: the quintic
+    Hermite interpolant of the positions through the positions, rates and
+    accelerations of both ends (error O(h^6), below the step's own), its
+    derivative for the rates; the works into w.ws by the cubic Hermite
+    interpolant of works and powers.  Returns tk minus the step's end."""
+    t0 = w.st[TPREV]
+    h = w.st[T] - t0
+    th = (tk - t0) / h
+    t2 = th * th
+    t3 = t2 * th
+    t4 = t3 * th
+    t5 = t4 * th
+    h0 = 1.0 - 10.0 * t3 + 15.0 * t4 - 6.0 * t5
+    h1 = th - 6.0 * t3 + 8.0 * t4 - 3.0 * t5
+    h2 = 0.5 * t2 - 1.5 * t3 + 1.5 * t4 - 0.5 * t5
+    h3 = 10.0 * t3 - 15.0 * t4 + 6.0 * t5
+    h4 = -4.0 * t3 + 7.0 * t4 - 3.0 * t5
+    h5 = 0.5 * t3 - t4 + 0.5 * t5
+    d0 = -30.0 * t2 + 60.0 * t3 - 30.0 * t4
+    d1 = 1.0 - 18.0 * t2 + 32.0 * t3 - 15.0 * t4
+    d2 = th - 4.5 * t2 + 6.0 * t3 - 2.5 * t4
+    d3 = 30.0 * t2 - 60.0 * t3 + 30.0 * t4
+    d4 = -12.0 * t2 + 28.0 * t3 - 15.0 * t4
+    d5 = 1.5 * t2 - 4.0 * t3 + 2.5 * t4
+    for j in range(w.it[NF]):
+        p0, v0, a0 = w.xprev[j], w.vprev[j], w.aprev[j]
+        p1, v1, a1 = w.x0[j], w.v0[j], w.kv[0, j]
+        w.xs[j] = h0 * p0 + h1 * h * v0 + h2 * h * h * a0 + h3 * p1 + h4 * h * v1 \
+            + h5 * h * h * a1
+        w.vs[j] = (d0 * p0 + d1 * h * v0 + d2 * h * h * a0 + d3 * p1 + d4 * h * v1
+                   + d5 * h * h * a1) / h
+    c0 = 1.0 - 3.0 * t2 + 2.0 * t3
+    c1 = th - 2.0 * t2 + t3
+    c2 = 3.0 * t2 - 2.0 * t3
+    c3 = -t2 + t3
+    for k in range(3):
+        w.ws[k] = c0 * w.wprev[k] + c1 * h * w.pprev[k] + c2 * w.w0[k] + c3 * h * w.kw[0, k]
+    return tk - w.st[T]
+
+
+@njit(nrt=False)
+def record(S: tuple, w: Work, ob: tuple, row: int, tk: float, end: bool) -> None:
+    """Output row ``row`` of ob = (t, q, qd, qdd, fgc, quality, closure, energy (5:
+    kinetic, potential, drive work, load work, dissipated)) at tk: the step's end
+    (``end``: the start state in w) or the evaluated S with the works w.ws."""
+    OT, OQ, OQD, OQDD, OF, OQUAL, OCLOS, OEN = ob
+    OT[row] = tk
+    nq = S.q.shape[0]
+    for a in range(nq):
+        OQ[row, a] = w.q0[a] if end else S.q[a]
+        OQD[row, a] = w.qd0[a] if end else S.qd[a]
+        OQDD[row, a] = w.qdd0[a] if end else S.qdd[a]
+        OF[row, a] = w.role[a] == 1
+    OCLOS[row] = w.st[CLOS0] if end else w.st[CLOSURE]
+    OQUAL[row] = w.st[QUAL0] if end else w.st[QUALITY]
+    OEN[row, 0] = w.ke_pe[0, 0] if end else w.st[KE]
+    OEN[row, 1] = w.ke_pe[0, 1] if end else w.st[PE]
+    for k in range(3):
+        OEN[row, 2 + k] = w.w0[k] if end else w.ws[k]
+
+
+@njit(nrt=False)
+def dense_output(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
+                 gen: np.ndarray | None, w: Work, tk: float, ob: tuple, row: int) -> int:
+    """The output at tk inside the step just taken (SGCs at w.ms[0]): the interpolated
+    FGCs, the loops closed there, the equations evaluated, the row recorded.
+    Returns OK or the failure code."""
+    dt = dense_point(w, tk)
+    S.t[0] = tk
+    st = close_stage(KP, DP, S, gen, w, dt, 0)
+    if st == OK:
+        st = evaluate(KP, DP, YP, ZP, S, gen, w, 0)
+    if st == OK:
+        record(S, w, ob, row, tk, False)
+    return st
+
+
+@njit(nrt=False)
+def outputs(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | None,
+            w: Work, tout: np.ndarray, kout: np.ndarray, ob: tuple, base: int) -> int:
+    """Record the outputs tout[kout[0]:] that the step just taken reached (rows from
+    kout[0] - base); returns OK or the failure code of an interpolated one.  The end
+    of the step is recorded from the start state."""
+    t1 = w.st[T]
+    n = tout.shape[0]
+    while kout[0] < n:
+        tk = tout[kout[0]]
+        end = abs(tk - t1) <= 1e-12 * max(1.0, abs(t1))
+        if tk > t1 and not end:
+            break
+        if end:
+            record(S, w, ob, kout[0] - base, tk, True)
+        else:
+            st = dense_output(KP, DP, YP, ZP, S, gen, w, tk, ob, kout[0] - base)
+            if st != OK:
+                w.it[WHY] = st
+                return st
+        kout[0] += 1
+    return OK
+
+
+@njit(nrt=False)
+def room(w: Work, tout: np.ndarray, kout: np.ndarray, base: int, cap: int) -> bool:
+    """True when the output rows left hold every output the next step (w.st[H]) may
+    reach."""
+    t1 = w.st[T] + w.st[H]
+    k = kout[0]
+    while k < tout.shape[0] and tout[k] <= t1 * (1.0 + 1e-12) + 1e-300:
+        k += 1
+    return k - base <= cap
+
+
 @njit(nrt=False, inline="always")
-def _after(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, w: Work, code: int,
-           h: float, last: bool, t_end: float) -> int:
+def _after(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | None,
+           w: Work, code: int, h: float, last: bool, t_end: float, tout: np.ndarray,
+           kout: np.ndarray, ob: tuple, base: int) -> int:
     """What the run loop does after an attempt: -1 to go on, else its return code."""
     if code == FAILED:
         return STOPPED
@@ -853,25 +995,34 @@ def _after(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, w: Work, code
         return -1
     if last:
         w.st[T] = t_end
-    if w.st[QUALITY] < 0.5 * w.st[QREF] and choose(KP, DP, S, gen, w):
+    if outputs(KP, DP, YP, ZP, S, gen, w, tout, kout, ob, base) != OK:
+        return STOPPED
+    if w.st[QUAL0] < 0.5 * w.st[QREF] and choose(KP, DP, S, gen, w):
         return SWITCHED
     return -1
 
 
 @njit(nrt=False)
 def run_rk(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | None,
-           w: Work, t_end: float, max_steps: int) -> int:
-    """Dormand-Prince steps from w.st[T] to t_end (hit exactly) with the SGCs held (w.ms
-    the same at every stage): REACHED; SWITCHED when the FGCs changed at w.st[T]
-    (the caller records it and calls again); STOPPED when a step could not be
-    taken even at the smallest length (w.it[WHY] says why); CAPPED after
-    max_steps steps."""
+           w: Work, tout: np.ndarray, kout: np.ndarray, ob: tuple, base: int, cap: int,
+           max_steps: int) -> int:
+    """Dormand-Prince steps toward the last output time (hit exactly) with the SGCs held
+    (w.ms the same at every stage), recording the outputs tout[kout[0]:] the steps
+    pass (interpolated, the loops closed there: :func:`outputs`) into the rows of
+    ob from kout[0] - base (at most cap rows).  Returns REACHED (every output
+    done); SWITCHED when the FGCs changed at w.st[T] (the caller records it and
+    calls again); STOPPED when a step could not be taken even at the smallest
+    length (w.it[WHY] says why); CAPPED after max_steps steps; FULL when the next
+    step's outputs would not fit."""
     s0 = w.it[STEPS]
-    while w.st[T] < t_end:
+    t_end = tout[tout.shape[0] - 1]
+    while kout[0] < tout.shape[0]:
         h = begin_step(w, t_end)
+        if not room(w, tout, kout, base, cap):
+            return FULL
         last = w.st[T] + h >= t_end
-        code = _after(KP, DP, S, gen, w, rk_attempt(KP, DP, YP, ZP, S, gen, w), h, last,
-                      t_end)
+        code = _after(KP, DP, YP, ZP, S, gen, w, rk_attempt(KP, DP, YP, ZP, S, gen, w), h,
+                      last, t_end, tout, kout, ob, base)
         if code >= 0:
             return code
         if w.it[STEPS] - s0 >= max_steps:
@@ -881,15 +1032,19 @@ def run_rk(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray
 
 @njit(nrt=False)
 def run_book(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | None,
-             w: Work, t_end: float, max_steps: int) -> int:
+             w: Work, tout: np.ndarray, kout: np.ndarray, ob: tuple, base: int, cap: int,
+             max_steps: int) -> int:
     """:func:`run_rk` with the book's steps (compiled apart: a run of one method never
     compiles the other)."""
     s0 = w.it[STEPS]
-    while w.st[T] < t_end:
+    t_end = tout[tout.shape[0] - 1]
+    while kout[0] < tout.shape[0]:
         h = begin_step(w, t_end)
+        if not room(w, tout, kout, base, cap):
+            return FULL
         last = w.st[T] + h >= t_end
-        code = _after(KP, DP, S, gen, w, book_attempt(KP, DP, YP, ZP, S, gen, w), h, last,
-                      t_end)
+        code = _after(KP, DP, YP, ZP, S, gen, w, book_attempt(KP, DP, YP, ZP, S, gen, w), h,
+                      last, t_end, tout, kout, ob, base)
         if code >= 0:
             return code
         if w.it[STEPS] - s0 >= max_steps:
