@@ -1,0 +1,489 @@
+"""IMP dynamic mode (FIND DYNAMICS): the mode rules, DATA TIME / IC / MOTION, the ZERO
+statements of the integrator, listings and JSON, failures, DELETE DYNAMICS, and the
+example decks run end to end (reference imp-language.md §1.2, §2.2, §8.6, §10, §13;
+book ch 14).
+
+The references are written here in plain numpy and scipy from the numbers in
+the decks, never from openimp:
+
+* examples/fourbar_released.imp: Lagrange's equation of the four-bar in its crank
+  angle, I(a) a'' + I'(a) a'^2 / 2 + V'(a) + c a' = 0, with I(a) and V(a) from a
+  circle-intersection position solution and central differences, integrated by
+  scipy; and the energy audit's balance;
+* examples/engine_runup.imp: friction-free, the torque's work is the kinetic
+  energy, so the crank speed is sqrt(2 tau (a - a0) / I(a)) with I(a) the
+  slider-crank's inertia referred to the crank;
+* examples/quarter_car_bump.imp: the linear two-mass quarter car (its springs act
+  along Y only, so it is linear at any amplitude) integrated by scipy, and the
+  static sag at the end;
+* a compound pendulum (inline): its equation of motion for DATA IC given as
+  numbers and as VALUEs, and the pivot load at release by Newton's law
+  (dynamic-mode convention: the second-named link's load on the first).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from openimp.imp.deck import load
+from openimp.imp.interp import DeckError
+
+ROOT = Path(__file__).parent.parent
+EXAMPLES = ROOT / "examples"
+G = 9.80665
+
+
+# =============================================================================
+# helpers
+# =============================================================================
+def run_deck(path: Path):
+    deck = load(path)
+    echo: list[str] = []
+    runs = deck.run(echo=echo.append)
+    return runs, echo
+
+
+def write(tmp_path: Path, text: str, name: str = "deck.imp") -> Path:
+    p = tmp_path / name
+    p.write_text(text)
+    return p
+
+
+def line_of(text: str, start: str) -> int:
+    """1-based number of the first line of ``text`` that starts with ``start``."""
+    for i, ln in enumerate(text.splitlines(), start=1):
+        if ln.startswith(start):
+            return i
+    raise AssertionError(start)
+
+
+def errors_of(path: Path) -> list[tuple[int, str]]:
+    """(line, message) of every input error of a deck."""
+    with pytest.raises(DeckError) as info:
+        load(path)
+    return [(e.where[1], str(e)) for e in info.value.errors]
+
+
+def cli(*args: str | Path, timeout: float = 600) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "openimp.cli", *map(str, args)],
+                          capture_output=True, text=True, timeout=timeout,
+                          env={**__import__("os").environ, "MPLBACKEND": "Agg"})
+
+
+def column(run, request: str, item: str, col: str) -> np.ndarray:
+    t = run.table(request, item)
+    return np.asarray(t.rows)[:, t.columns.index(col)]
+
+
+def deck_number(text: str, statement: str, k: int = 0) -> float:
+    """The k-th number after ``statement =`` in a deck."""
+    rest = text.split(statement, 1)[1].split("=", 1)[1].splitlines()[0]
+    return float(re.split(r"[,;\s]+", rest.strip())[k])
+
+
+# =============================================================================
+# a compound pendulum (inline): SI units, a uniform bar 0.5 m, 2 kg, pinned at A
+# =============================================================================
+PEND_L, PEND_M, PEND_IA = 0.5, 2.0, 0.1666667  # inertia about A as the deck gives it
+PEND = f"""TITLE = PENDULUM
+UNIT (MASS) = 1
+ZPIN (BASE, ARM) = A
+DATA ZPIN (A) = 0,0,0; 1,0,0; 1,0,0
+POINT (ARM) = PIV, TIP
+DATA POINT (PIV, ABS) = 0, 0, 0
+DATA POINT (TIP, ABS) = {PEND_L}, 0, 0
+DATA MASS (ARM, A) = {PEND_M}; {PEND_L / 2}, 0, 0
+DATA INERTIA (ARM, A) = 0, {PEND_IA}, {PEND_IA}, 0, 0, 0
+DATA GRAVITY = 0, -{G}, 0
+ZERO (FORCE) = 0.0001, 0.01
+"""
+
+
+def pendulum(theta0: float, rate0: float, times: np.ndarray) -> np.ndarray:
+    """The pin angle (rad) of the pendulum: I_A a'' = -m g (L/2) cos a (a from +X)."""
+    def rhs(_t: float, y: np.ndarray) -> list[float]:
+        return [y[1], -PEND_M * G * PEND_L / 2 * math.cos(y[0]) / PEND_IA]
+
+    s = solve_ivp(rhs, (times[0], times[-1]), [theta0, rate0], t_eval=times, rtol=1e-11,
+                  atol=1e-12)
+    return s.y[0]
+
+
+@pytest.mark.parametrize("ic", ["-60, 1.5", "P0, W0"], ids=["numbers", "values"])
+def test_pendulum_ic_in_degrees_or_value_radians(tmp_path, ic) -> None:
+    """DATA IC positions in degrees (a VALUE in radians) and rates in rad/s; the
+    swing against the pendulum's equation of motion."""
+    p = write(tmp_path, PEND + "VALUE (P0) = 0 - PI / 3\nVALUE (W0) = 1.5\nFIND DYNAMICS\n"
+              f"DATA IC (A) = {ic}\nDATA TIME = 1.0, 0, 0.05\nLIST POSITION (A)\n"
+              "LIST VELOCITY (A)\nEXECUTE\nEND\n")
+    runs, _ = run_deck(p)
+    run = runs[0]
+    assert run.mode == "dynamic" and not run.failure, run.failure
+    t = column(run, "LIST POSITION", "joint A", "Time")
+    np.testing.assert_allclose(t, np.arange(21) * 0.05, atol=1e-12)
+    a = column(run, "LIST POSITION", "joint A", "JVar 1")
+    w = column(run, "LIST VELOCITY", "joint A", "JVar 1")
+    assert a[0] == pytest.approx(-60.0, abs=1e-9) and w[0] == pytest.approx(1.5, abs=1e-9)
+    ref = np.degrees(pendulum(-math.pi / 3, 1.5, t))
+    assert np.max(np.abs(a - ref)) < 0.02
+
+
+def test_pendulum_pivot_load_at_release_is_the_dynamic_convention(tmp_path) -> None:
+    """Released horizontal at rest: the bar's load on BASE (the second-named link on
+    the first, on BASE's axes) is -(m g + m alpha L/2) along Y, alpha = -m g (L/2) / I_A."""
+    p = write(tmp_path, PEND + "FIND DYNAMICS\nDATA TIME = 0.1, 0, 0.05\nLIST FORCE (A)\n"
+              "EXECUTE\nEND\n")
+    run = run_deck(p)[0][0]
+    alpha = -PEND_M * G * (PEND_L / 2) / PEND_IA
+    fy = column(run, "LIST FORCE", "joint A", "FY")[0]
+    fx = column(run, "LIST FORCE", "joint A", "FX")[0]
+    mz = column(run, "LIST FORCE", "joint A", "MZ")[0]
+    assert fy == pytest.approx(-(PEND_M * G + PEND_M * alpha * PEND_L / 2), rel=1e-6)
+    assert abs(fx) < 1e-9 and abs(mz) < 1e-6  # a free pin carries no drive
+
+
+# =============================================================================
+# the example decks
+# =============================================================================
+def _fourbar_reference(text: str, times: np.ndarray) -> np.ndarray:
+    """The crank angle (rad) of examples/fourbar_released.imp by Lagrange's equation in
+    the crank angle (the deck's numbers: links along A(0,0) B(0.1,0) C(0.3,0.3) D(0.4,0))."""
+    L1, L2, L3 = 0.1, math.hypot(0.2, 0.3), math.hypot(0.1, 0.3)
+    D = np.array([0.4, 0.0])
+    m = np.array([deck_number(text, f"DATA MASS ({k}") for k in ("CRANK", "COUPLER",
+                                                                  "ROCKER")])
+    dc = np.array([deck_number(text, f"DATA MASS ({k}", 1) for k in ("CRANK", "COUPLER",
+                                                                      "ROCKER")])
+    Io = np.array([deck_number(text, f"DATA INERTIA ({k}", 2) for k in ("CRANK", "COUPLER",
+                                                                         "ROCKER")])
+    Ic = Io - m * dc**2  # about the centres
+    c = deck_number(text, "DATA DAMPER (A)")
+    a0 = math.radians(deck_number(text, "DATA IC (A)"))
+
+    def pose(a: float) -> tuple[np.ndarray, np.ndarray]:
+        B = L1 * np.array([math.cos(a), math.sin(a)])
+        e = D - B
+        d = math.hypot(*e)
+        x = (d * d + L2 * L2 - L3 * L3) / (2 * d)
+        C = B + x * e / d + math.sqrt(L2 * L2 - x * x) * np.array([-e[1], e[0]]) / d
+        ang = np.array([a, math.atan2(*(C - B)[::-1]), math.atan2(*(D - C)[::-1])])
+        cen = np.array([B / 2, B + dc[1] * (C - B) / L2, C + dc[2] * (D - C) / L3])
+        return cen, ang
+
+    def inertia(a: float, h: float = 1e-6) -> float:
+        (c1, t1), (c0, t0) = pose(a + h), pose(a - h)
+        dang = (np.angle(np.exp(1j * (t1 - t0)))) / (2 * h)
+        return float(np.sum(m * np.sum(((c1 - c0) / (2 * h)) ** 2, axis=1))
+                     + np.sum(Ic * dang**2))
+
+    def potential(a: float) -> float:
+        return float(G * np.sum(m * pose(a)[0][:, 1]))
+
+    def rhs(_t: float, y: np.ndarray) -> list[float]:
+        a, w = y
+        h = 1e-5
+        dI = (inertia(a + h) - inertia(a - h)) / (2 * h)
+        dV = (potential(a + h) - potential(a - h)) / (2 * h)
+        return [w, (-0.5 * dI * w * w - dV - c * w) / inertia(a)]
+
+    assert np.allclose(pose(0.0)[0][2], [0.35, 0.15])  # the drawn branch: C above
+    s = solve_ivp(rhs, (times[0], times[-1]), [a0, 0.0], t_eval=times, rtol=1e-10,
+                  atol=1e-12)
+    return s.y[0]
+
+
+def test_fourbar_released_against_lagrange_and_energy_balance() -> None:
+    path = EXAMPLES / "fourbar_released.imp"
+    runs, echo = run_deck(path)
+    run = runs[0]
+    assert run.mode == "dynamic" and not run.failure and not run.unsupported, run.failure
+    t = column(run, "LIST POSITION", "joint A", "Time")
+    a = column(run, "LIST POSITION", "joint A", "JVar 1")
+    ref = np.degrees(_fourbar_reference(path.read_text(), t))
+    assert np.ptp(ref) > 100  # it swings through a large angle
+    assert np.max(np.abs(a - ref)) < 0.02  # degrees
+    # the energy audit (PRINT HEADING): the balance is ~0, the damper takes energy out
+    e = run.table("PRINT HEADING", "energy")
+    assert e.columns == ["Time", "Kinetic", "Potential", "Drive work", "Load work",
+                         "Dissipated", "Balance"]
+    rows = np.asarray(e.rows)
+    v0 = rows[0, 2]
+    assert np.max(np.abs(rows[:, 6])) < 1e-4 * v0
+    assert np.all(np.diff(rows[:, 5]) >= -1e-12) and rows[-1, 5] > 0.1
+    np.testing.assert_allclose(rows[:, 1] + rows[:, 2] - v0 + rows[:, 5] - rows[:, 4]
+                               - rows[:, 3], rows[:, 6], atol=1e-9)
+    # the listing: banner, time lines, the FGC integrated, the energy line, statistics
+    assert any(ln.strip() == "Dynamic Mode" for ln in [s.strip("* ") for s in echo])
+    assert "time = 0.050000" in echo
+    assert "A 1 imp 30.0000 0.000" in " ".join(echo)
+    assert any(ln.startswith("Energy: kinetic 0, potential 3.6") for ln in echo)
+    assert any(ln.startswith("Integration (book): ") for ln in echo)
+    stats = run.table("PRINT HEADING", "integration")
+    assert stats.columns[0] == "Time" and np.asarray(stats.rows)[0, 0] == pytest.approx(2.0)
+
+
+def _slider_crank_inertia(a: np.ndarray, text: str) -> np.ndarray:
+    """The inertia of examples/engine_runup.imp referred to the crank at angles ``a``."""
+    r, l = 0.05, 0.2
+    Icr = deck_number(text, "DATA INERTIA (CRANK, A)", 2)
+    mr = deck_number(text, "DATA MASS (ROD, B)")
+    Irc = deck_number(text, "DATA INERTIA (ROD, B)", 2) - mr * (l / 2) ** 2
+    mp = deck_number(text, "DATA MASS (PISTON, C)")
+
+    def pose(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        B = np.stack([r * np.cos(x), r * np.sin(x)], axis=-1)
+        xp = r * np.cos(x) + np.sqrt(l * l - (r * np.sin(x)) ** 2)
+        C = np.stack([xp, np.zeros_like(x)], axis=-1)
+        beta = np.arctan2(C[:, 1] - B[:, 1], C[:, 0] - B[:, 0])
+        return (B + C) / 2, beta, xp
+
+    h = 1e-7
+    (c1, b1, x1), (c0, b0, x0) = pose(a + h), pose(a - h)
+    return (Icr + mr * np.sum(((c1 - c0) / (2 * h)) ** 2, axis=1)
+            + Irc * ((b1 - b0) / (2 * h)) ** 2 + mp * ((x1 - x0) / (2 * h)) ** 2)
+
+
+def test_engine_runup_crank_speed_is_the_torque_work() -> None:
+    path = EXAMPLES / "engine_runup.imp"
+    text = path.read_text()
+    run = run_deck(path)[0][0]
+    assert not run.failure, run.failure
+    tau = deck_number(text, "DATA TORQUE (A)")
+    a = np.radians(column(run, "LIST POSITION", "joint A", "JVar 1"))
+    w = column(run, "LIST VELOCITY", "joint A", "JVar 1")
+    ref = np.sqrt(2 * tau * (a - a[0]) / _slider_crank_inertia(a, text))
+    assert w[-1] > 50 and np.max(np.abs(w - ref)) < 1e-3 * w[-1]
+    e = np.asarray(run.table("PRINT HEADING", "energy").rows)
+    # the load work (integrated with the motion) is tau (a - a0)
+    np.testing.assert_allclose(e[:, 4], tau * (a - a[0]), rtol=1e-5, atol=1e-9)
+    np.testing.assert_allclose(e[:, 1], e[:, 4], rtol=1e-4, atol=1e-6)  # kinetic = work
+
+
+def test_quarter_car_bump_against_the_linear_model_and_the_sag() -> None:
+    path = EXAMPLES / "quarter_car_bump.imp"
+    text = path.read_text()
+    run = run_deck(path)[0][0]
+    assert not run.failure, run.failure
+    mw = deck_number(text, "DATA MASS (WHEEL, LINK)")
+    mb = deck_number(text, "DATA MASS (BODY, LINK)")
+    kt, lt = deck_number(text, "DATA SPRING (TYRE)"), deck_number(text, "DATA SPRING (TYRE)", 1)
+    k, lc = deck_number(text, "DATA SPRING (COIL)"), deck_number(text, "DATA SPRING (COIL)", 1)
+    c = deck_number(text, "DATA DAMPER (SHOCK)")
+
+    def road(t: float) -> float:
+        return 0.025 * (1 - math.cos(20 * math.pi * (t - 1))) if 1 < t < 1.1 else 0.0
+
+    def rhs(t: float, y: np.ndarray) -> list[float]:
+        w, b, wd, bd = y  # displacements from where they are drawn (0.3, 0.8)
+        ft = kt * (0.3 + w - road(t) - lt)  # tension
+        fc = k * (0.5 + b - w - lc) + c * (bd - wd)
+        return [wd, bd, (fc - ft) / mw - G, -fc / mb - G]
+
+    t = column(run, "LIST POSITION", "joint W", "Time")
+    s = solve_ivp(rhs, (0.0, t[-1]), [0, 0, 0, 0], t_eval=t, rtol=1e-10, atol=1e-12,
+                  max_step=1e-3)
+    w = column(run, "LIST POSITION", "joint W", "JVar 1")
+    b = column(run, "LIST POSITION", "joint B", "JVar 1")
+    assert np.max(np.abs(s.y[1])) > 0.01  # the bump moves the body by centimetres
+    assert np.max(np.abs(w - s.y[0])) < 1e-6 and np.max(np.abs(b - s.y[1])) < 1e-6
+    # settled at the static sag of the deck's comment
+    sag_w = lt - (mb + mw) * G / kt - 0.3
+    sag_b = 0.3 + sag_w + lc - mb * G / k - 0.8
+    assert w[-1] == pytest.approx(sag_w, abs=2e-5) and b[-1] == pytest.approx(sag_b, abs=2e-4)
+    # the tyre force (tension positive) against its length
+    ft = column(run, "LIST FORCE", "spring TYRE", "Force")
+    np.testing.assert_allclose(ft, kt * (0.3 + w - [road(x) for x in t] - lt), atol=1e-6)
+
+
+@pytest.mark.parametrize("name", ["fourbar_released", "engine_runup", "quarter_car_bump"])
+def test_examples_run_from_the_command_line(tmp_path, name) -> None:
+    """``openimp run examples/X.imp`` exits 0; the JSON holds the dynamic run."""
+    js = tmp_path / "o.json"
+    p = cli("run", EXAMPLES / f"{name}.imp", "--json", js)
+    assert p.returncode == 0, p.stderr
+    assert "Traceback" not in p.stderr
+    assert "Dynamic Mode" in p.stdout
+    run = json.loads(js.read_text())["runs"][0]
+    assert run["mode"] == "dynamic" and "failure" not in run
+
+
+# =============================================================================
+# mode rules and messages
+# =============================================================================
+FOUR = PEND  # any model will do for the statement rules
+
+
+@pytest.mark.parametrize(("tail", "bad", "words"), [
+    ("DATA POSITION (A) = 0, 10, 3\nFIND DYNAMICS\n", "FIND DYNAMICS", "after DATA POSITION"),
+    ("DATA IC (A) = 10, 0\nFIND DYNAMICS\n", "DATA IC", "needs FIND DYNAMICS first"),
+    ("FIND DYNAMICS\nZERO (FORCE) = 0, 1\n", "ZERO (FORCE)", "both limits must be positive"),
+    ("FIND DYNAMICS\nZERO (FORCE) = 0.1, -1\n", "ZERO (FORCE)", "both limits must be positive"),
+    ("FIND DYNAMICS\nDATA POSITION (A) = 0\n", "DATA POSITION", "not allowed after FIND "
+     "DYNAMICS"),
+    ("FIND DYNAMICS\nDATA VELOCITY (A) = 1\n", "DATA VELOCITY", "not allowed after FIND "
+     "DYNAMICS"),
+    ("DELETE DYNAMICS\n", "DELETE DYNAMICS", "no FIND DYNAMICS to cancel"),
+    ("FIND EQUILIB\nFIND DYNAMICS\n", "FIND DYNAMICS", "after FIND EQUILIB"),
+    ("FIND DYNAMICS\nDATA IC (A) = 10, 0; 20, 0\n", "DATA IC", "has 1 variable(s) but 2"),
+])
+def test_mode_rules_refused_at_their_statement(tmp_path, tail, bad, words) -> None:
+    text = FOUR + tail + "DATA TIME = 1, 0, 0.1\nEXECUTE\nEND\n"
+    errs = errors_of(write(tmp_path, text))
+    line = len(FOUR.splitlines()) + [ln.startswith(bad) for ln in tail.splitlines()].index(True)
+    assert any(n == line + 1 and words in m for n, m in errs), errs
+
+
+def test_data_time_missing_names_the_execute_and_exits_2(tmp_path) -> None:
+    text = FOUR + "FIND DYNAMICS\nLIST POSITION (A)\nEXECUTE\nEND\n"
+    p = write(tmp_path, text)
+    r = cli("run", p)
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+    n = line_of(text, "EXECUTE")
+    assert f"{p}:{n}: EXECUTE statement: EXECUTE in dynamic mode (FIND DYNAMICS at {p}:" \
+           f"{line_of(text, 'FIND DYNAMICS')}) needs DATA TIME" in r.stderr
+
+
+def test_ic_and_motion_checked_against_the_model(tmp_path) -> None:
+    sph = ("ZPIN (BASE, ARM) = A\nSPHERE (ARM, BOB) = S\nFIND DYNAMICS\n"
+           "DATA IC (S) = 10, 0\nDATA TIME = 1, 0, 0.1\nEXECUTE\nEND\n")
+    errs = errors_of(write(tmp_path, sph, "s.imp"))
+    assert any(n == 4 and "cannot take an initial condition" in m for n, m in errs), errs
+    text = FOUR + "FIND DYNAMICS\nDATA IC (A) = P0, 0\nDATA TIME = 1, 0, 0.1\nEXECUTE\nEND\n"
+    p = write(tmp_path, text)
+    r = cli("run", p)
+    assert r.returncode == 2 and f"{p}:{line_of(text, 'DATA IC')}: DATA IC statement: VALUE " \
+                                 "P0 is not defined by EXECUTE" in r.stderr
+    text = (FOUR + "YSLIDE (BASE, CAR) = Y\nVALUE (V) = POSITION(A, 1)\nFIND DYNAMICS\n"
+            "DATA MOTION (Y) = V\nDATA TIME = 1, 0, 0.1\nEXECUTE\nEND\n")
+    p = write(tmp_path, text, "m.imp")
+    r = cli("check", p)
+    assert r.returncode == 2, r.stderr
+    assert f"{p}:{line_of(text, 'DATA MOTION')}: DATA MOTION statement: VALUE V of joint Y " \
+           "reads the model" in r.stderr
+
+
+def test_delete_dynamics_returns_to_undefined_mode(tmp_path) -> None:
+    """DELETE DYNAMICS: a kinematic run may follow (DATA POSITION allowed again); DATA
+    MOTION and DATA TIME are gone (the DATA TIME assumed is reported)."""
+    text = (FOUR + "YSLIDE (BASE, CAR) = Y\nDATA MASS (CAR, LINK) = 1; 0, 0, 0\n"
+            "FIND DYNAMICS\nDATA MOTION (Y) = 0.25\nDATA TIME = 0.2, 0, 0.1\n"
+            "LIST POSITION (A, Y)\nEXECUTE\nDELETE DYNAMICS\nDATA POSITION (A) = 0, 10, 2\n"
+            "EXECUTE\nEND\n")
+    runs, _ = run_deck(write(tmp_path, text))
+    assert [r.mode for r in runs] == ["dynamic", "kinematic"]
+    assert not runs[0].failure and not runs[1].failure, (runs[0].failure, runs[1].failure)
+    y = column(runs[0], "LIST POSITION", "joint Y", "JVar 1")
+    np.testing.assert_allclose(y, 0.25)  # a number in DATA MOTION is held
+    assert "'DATA TIME = 2.00000, 0.00000, 1.00000' is assumed." in runs[1].messages
+    np.testing.assert_allclose(column(runs[1], "LIST POSITION", "joint A", "JVar 1"),
+                               [0, 10, 20])
+    np.testing.assert_allclose(column(runs[1], "LIST POSITION", "joint Y", "JVar 1"), 0)
+    # and FIND DYNAMICS again needs a new DATA TIME
+    again = text.split("DATA POSITION (A) = 0, 10, 2")[0] + "FIND DYNAMICS\nEXECUTE\nEND\n"
+    errs = errors_of(write(tmp_path, again, "again.imp"))
+    assert any("needs DATA TIME" in m for _, m in errs), errs
+
+
+def test_ic_on_an_input_motion_and_zero_spring_are_said(tmp_path) -> None:
+    text = (FOUR + "ZERO (SPRING) = 0.001\nFIND DYNAMICS\nDATA MOTION (A) = 10\n"
+            "DATA IC (A) = 20, 1\nDATA TIME = 0.1, 0.5, 0.05\nLIST POSITION (A)\nEXECUTE\nEND\n")
+    run = run_deck(write(tmp_path, text))[0][0]
+    assert not run.failure, run.failure
+    msgs = " | ".join(run.messages)
+    assert "DATA IC of joint A 1 is not used: that variable is an input motion" in msgs
+    assert "ZERO (SPRING) = 0.001 is accepted and not needed" in msgs
+    assert "the smallest step 0.5 s is larger than the print step 0.05 s" in msgs
+    np.testing.assert_allclose(column(run, "LIST POSITION", "joint A", "JVar 1"), 10.0)
+
+
+# =============================================================================
+# listings, JSON, failures
+# =============================================================================
+def test_print_requests_and_value_in_dynamic_mode(tmp_path) -> None:
+    """PRINT POSITION / VELOCITY / ACCEL / FORCE / VALUE at every output time; a VALUE
+    reads the solved motion (POSITION(A, 1) in degrees)."""
+    text = (PEND + "VALUE (ANG) = POSITION(A, 1)\nFIND DYNAMICS\nDATA TIME = 0.1, 0, 0.05\n"
+            "PRINT POSITION (A, TIP)\nPRINT VELOCITY (TIP)\nPRINT ACCEL (A)\n"
+            "PRINT FORCE (A)\nPRINT VALUE (ANG)\nSTORE POSITION (A)\nEXECUTE\nEND\n")
+    run, echo = (lambda r: (r[0][0], r[1]))(run_deck(write(tmp_path, text)))
+    assert not run.failure, run.failure
+    assert echo.count("Position Results:") == 3 and echo.count("Force Results:") == 3
+    assert "time = 0.100000" in echo
+    assert "through Joint A from Link BASE onto Link ARM :" in echo
+    a = column(run, "PRINT POSITION", "joint A", "JVar 1")
+    val = column(run, "PRINT VALUE", "value ANG", "Value")
+    np.testing.assert_allclose(val, np.radians(a), atol=1e-12)
+    acc = column(run, "PRINT ACCEL", "joint A", "JVar 1")
+    assert acc[0] == pytest.approx(-PEND_M * G * PEND_L / 2 / PEND_IA, rel=1e-9)
+    assert run.table("STORE POSITION", "joint A").columns == ["Time", "JVar 1"]
+
+
+def test_failure_keeps_the_outputs_before_it(tmp_path) -> None:
+    """A slider-crank whose piston is driven past the crank's reach: the loops cannot be
+    closed after t ~ 0.56 s; the run says so (exit 1) and lists what it solved."""
+    text = """TITLE = DRIVEN TOO FAR
+UNIT (MASS) = 1
+ZPIN (BASE, CRANK) = A
+ZPIN (CRANK, ROD) = B
+ZPIN (ROD, PISTON) = C
+XSLIDE (BASE, PISTON) = D
+DATA ZPIN (A) = 0,0,0; 1,0,0; 0,0.05,0
+DATA ZPIN (B) = 0,0.05,0; 0,0.1,0; 0.193649,0,0
+DATA ZPIN (C) = 0.193649,0,0; 0.3,-0.05,0; 0.3,0,0
+DATA XSLIDE (D) = 0.193649, 0, 0
+DATA MASS (CRANK, A) = 1; 0.025, 0, 0
+DATA MASS (ROD, B) = 0.3; 0.1, 0, 0
+DATA MASS (PISTON, C) = 0.5; 0, 0, 0
+VALUE (X) = 0.1 * T
+FIND DYNAMICS
+DATA MOTION (D) = X
+DATA TIME = 1.0, 0, 0.05
+LIST POSITION (A, D)
+EXECUTE
+END
+"""
+    p = write(tmp_path, text)
+    js = tmp_path / "o.json"
+    r = cli("run", p, "--json", js)
+    assert r.returncode == 1 and "Traceback" not in r.stderr
+    run = json.loads(js.read_text())["runs"][0]
+    assert "failure" in run and f"{p}:{line_of(text, 'EXECUTE')}: EXECUTE: " in run["failure"]
+    rows = next(t["rows"] for t in run["tables"] if t["item"] == "joint D")
+    assert 5 < len(rows) < 21
+    assert rows[-1][0] < 0.6 and rows[-1][1] <= 0.25 - 0.193649 + 1e-9
+    assert "Listing of position of joint D" in r.stdout
+    assert "output(s) before it are listed" in run["failure"]
+
+
+def test_animate_and_plot_in_dynamic_mode(tmp_path) -> None:
+    text = (PEND + "FIND DYNAMICS\nDATA TIME = 0.2, 0, 0.05\nPLOT POSITION (A)\nANIMATE\n"
+            "EXECUTE\nEND\n")
+    p = write(tmp_path, text)
+    out = tmp_path / "pics"
+    r = cli("run", p, "--out", out)
+    assert r.returncode == 0, r.stderr
+    assert (out / "run1_animation.gif").stat().st_size > 0
+    assert (out / "run1_animation.html").stat().st_size > 0
+    assert (out / "run1_plot_position_joint_a.png").stat().st_size > 0
+
+
+def test_execute_hold_continues_in_time(tmp_path) -> None:
+    text = (PEND + "FIND DYNAMICS\nDATA TIME = 0.1, 0, 0.05\nLIST POSITION (A)\n"
+            "EXECUTE HOLD\nEXECUTE\nEND\n")
+    runs, _ = run_deck(write(tmp_path, text))
+    t1 = column(runs[0], "LIST POSITION", "joint A", "Time")
+    t2 = column(runs[1], "LIST POSITION", "joint A", "Time")
+    np.testing.assert_allclose(t1, [0, 0.05, 0.1])
+    np.testing.assert_allclose(t2, [0.1, 0.15, 0.2])
+    a1 = column(runs[0], "LIST POSITION", "joint A", "JVar 1")
+    a2 = column(runs[1], "LIST POSITION", "joint A", "JVar 1")
+    assert a2[0] == pytest.approx(a1[-1], abs=1e-9)
