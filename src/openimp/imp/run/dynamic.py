@@ -257,6 +257,16 @@ def run_notes(prep: Prepared, res: Any) -> list[str]:
     return out
 
 
+def _mobility(res: Any, nsgc: int) -> None:
+    """The rank of the loop equations at every output, from IMP's FGC = DF - SGC, when
+    the time response leaves it unset (zeros): the PRINT HEADING line and the heading
+    table's DOF read the mobility n - rank."""
+    free = np.asarray(getattr(res, "free", np.zeros((0, 0))), bool)
+    if res.nsteps and free.shape == (res.nsteps, res.system.nq) and not np.any(res.rank):
+        res.rank = (res.system.nq - free.sum(axis=1) - nsgc).astype(np.int64)
+        res._cache.pop("mobility", None)
+
+
 def solve(prep: Prepared, times: np.ndarray, start: np.ndarray | None,
           notes: list[str], progress: Callable[[int, int], None] | None = None) -> Solution:
     """Integrate a dynamic run over its output times (see the module docstring)."""
@@ -298,6 +308,7 @@ def solve(prep: Prepared, times: np.ndarray, start: np.ndarray | None,
                 notes.append(m)
         laws.notes.clear()
     notes.extend(run_notes(prep, res))
+    _mobility(res, len(prep.drivers))
     k = res.nsteps
     message = ""
     if res.message:
