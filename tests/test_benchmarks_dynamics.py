@@ -140,3 +140,56 @@ def test_section_renders_and_states_the_targets():
     assert "Target 1 (at least 10x faster than Exudyn" in text
     assert "Target 2" in text and "**met**" in text
     assert "crank" not in str(dy.summary(recs))
+
+
+def test_openimp_remark_and_warmup_text():
+    """rk with outputs every 0.01 s and every 0.1 s: the same steps, the extra outputs'
+    cost; book's steps at most the spacing; the warm-up times in the run paragraph."""
+    recs = {"openimp": _fake("openimp", [
+        ("rk 1e-8", {"method": "rk", "rtol": 1e-8}),
+        ("rk 1e-8, 0.1 s", {"method": "rk", "rtol": 1e-8, "print_step": 0.1}),
+        ("book", {"method": "book", "force_tol": (0.1, 1.0)}),
+        ("book, 0.1 s", {"method": "book", "print_step": 0.1})], 1e-6, 0.01)}
+    a, b = recs["openimp"]["settings"][:2]
+    a["median_s"], b["median_s"], a["evaluations"] = 0.019, 0.010, 960
+    text = dy._openimp_remark(recs)
+    assert "rk takes the same steps" in text
+    assert "rtol 1e-8: 10 and 10 steps, 900 more evaluations, 19.00 and 10.00 ms" in text
+    assert "10.0 us each" in text  # 9 ms over the 900 extra outputs
+    assert "at most the output spacing" in text
+    assert "every 0.01 s is" not in text and "us per output" not in text
+    assert dy._warmup_text({}) == ""
+    recs["openimp"]["warmup_s"] = {"rk": 12.5, "book": "error: boom"}
+    assert dy._warmup_text(recs) == "; the warm-up took rk 12.5 s, book: error: boom"
+
+
+def test_openimp_warmup_runs_each_method_before_any_setting(monkeypatch):
+    """openimp_settings: one untimed short simulate per method (compilation) before it
+    hands out the settings; their first runs are then guarded, their timed runs not."""
+    import types
+
+    calls = []
+
+    class _System:
+        var_names = ("A", "B", "C")
+
+        def var_index(self, k):
+            return self.var_names.index(k)
+
+    def simulate(system, t_final, **kw):
+        calls.append((t_final, kw["method"], kw["progress"]))
+        return "res"
+
+    fake = types.SimpleNamespace(compile=lambda m: _System(), simulate=simulate)
+    monkeypatch.setitem(sys.modules, "openimp", fake)
+    monkeypatch.setattr(dy, "openimp_model", lambda: None)
+    settings = dy.openimp_settings()
+    assert calls == [(dy.WARMUP_T, "rk", False), (dy.WARMUP_T, "book", False)]
+    assert set(dy.WARMUP) == {"rk", "book"}
+    assert len(settings) == len(dy.OPENIMP_SETTINGS)
+    run = settings[0][1]
+    times, res, first = dy.time_setting(run, 2)
+    assert res == "res" and len(times) == 2 and first >= 0.0
+    # the first run carries the guard (a callable), the timed runs no progress at all
+    assert callable(calls[2][2]) and calls[3][2] is False and calls[4][2] is False
+    assert all(c[0] == dy.T_FINAL for c in calls[2:])
