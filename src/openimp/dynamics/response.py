@@ -203,6 +203,7 @@ class _Outputs:
         self.base = 0
         self.streamed = 0
         self.last: tuple[np.ndarray, ...] | None = None
+        self.first: tuple[np.ndarray, ...] | None = None
         self.stream = _Stream(system, stream) if stream is not None else None
 
     @property
@@ -217,16 +218,21 @@ class _Outputs:
                 self.stream.write(self.ob, r, self.system.length_scale ** 2)
             self.streamed = self.count
         if not self.keep and upto > 0:
+            if self.first is None:
+                self.first = tuple(a[:1].copy() for a in self.ob)
             self.last = tuple(a[upto - 1:upto].copy() for a in self.ob)
             self.base = self.count
 
     def rows(self) -> tuple[np.ndarray, ...]:
-        """The kept rows: all of them, or the last one without ``keep``."""
+        """The kept rows: all of them, or without ``keep`` the first and the last (the
+        energy audit is against the start)."""
         if self.keep:
             return tuple(a[:self.count].copy() for a in self.ob)
-        if self.last is None:
+        if self.last is None or self.first is None:
             return tuple(a[:0].copy() for a in self.ob)
-        return self.last
+        if self.count == 1:
+            return self.first
+        return tuple(np.concatenate((f, la)) for f, la in zip(self.first, self.last, strict=True))
 
 
 class _Stream:
@@ -234,7 +240,12 @@ class _Stream:
     goes on, renamed to ``path`` when it ends, complete or not)."""
 
     def __init__(self, system: System, path: Any) -> None:
-        self.path = os.fspath(path)
+        try:
+            self.path = os.fspath(path)
+        except TypeError:
+            raise InputError(f"stream must be the path of a .csv file, got {path!r}") from None
+        if not isinstance(self.path, str):
+            raise InputError(f"stream must be the path of a .csv file, got {path!r}")
         if not self.path.lower().endswith(".csv"):
             raise InputError(f"stream must name a .csv file, got {self.path!r}")
         d = os.path.dirname(os.path.abspath(self.path))
@@ -477,9 +488,16 @@ class _Run:
         w.role[cols] = 1
 
     def _evaluate_start(self, S: Any) -> int:
+        """Evaluate the start state again (at the start, after a change of coordinates or
+        a law's switch): the FGCs at w.x0, w.v0, the SGCs' motion at T, the loops closed,
+        the equations (with the law values there), the start taken from it."""
         KP, DP, YP, ZP = self.k
         w, gen = self.w, self.system.gen
         t = float(w.st[stp.T])
+        nF = int(w.it[stp.NF])
+        w.xs[:nF] = w.x0[:nF]
+        w.vs[:nF] = w.v0[:nF]
+        self._motion_rows(np.array([t]))
         st = stp.close_stage(KP, DP, S, gen, w, 0.0, 0)
         if st != stp.OK:
             return st
@@ -507,6 +525,8 @@ class _Run:
             stp.LOST_COORDINATES: "the free coordinates no longer describe the mechanism (a "
                                   "singular posture)",
             stp.TOO_LARGE: "the step stays too large even at the smallest step",
+            stp.UNDERFLOW: "the error control asked for a step below 1e-14 of the time (the "
+                           "motion is discontinuous there, or the tolerance is below roundoff)",
         }.get(code, f"the step failed (code {code})")
 
     # ---- one step driven from Python (motions or laws)
@@ -573,9 +593,10 @@ class _Run:
             assert self.laws is not None
             self.g_start = self.laws.signs(S, float(w.st[stp.T]))
         while kout[0] < tout.size:
-            h = stp.begin_step(w, t_end)
-            if not stp.room(w, tout, kout, out.base, out.cap):
+            stp.begin_step(w, t_end)
+            if not stp.fit(w, tout, kout, out.base, out.cap):
                 return stp.FULL
+            h = float(w.st[stp.H])
             last = w.st[stp.T] + h >= t_end
             snap = self._snapshot() if self.events_on else None
             code = self._python_attempt(S)
@@ -583,6 +604,8 @@ class _Run:
                 return stp.STOPPED
             if code == stp.REJECTED:
                 if h <= w.st[stp.HMIN] * (1 + 1e-12) or h <= 1e-14 * max(1.0, abs(w.st[stp.T])):
+                    if w.it[stp.WHY] == stp.OK:
+                        w.it[stp.WHY] = stp.UNDERFLOW
                     return stp.STOPPED
                 continue
             shortened = False
@@ -602,8 +625,15 @@ class _Run:
 
     def _outputs(self, S: Any, out: _Outputs) -> int:
         """:func:`~openimp.dynamics.stepping.outputs` with the motions and laws here."""
+        t1 = float(self.w.st[stp.T])
+        laws = self.dyn.v.law.copy()  # the values of the step's end, for the next step
+        try:
+            return self._outputs_from(S, out, t1)
+        finally:
+            self.dyn.v.law[:] = laws
+
+    def _outputs_from(self, S: Any, out: _Outputs, t1: float) -> int:
         w, tout, kout = self.w, out.tout, out.kout
-        t1 = float(w.st[stp.T])
         while kout[0] < tout.size:
             tk = float(tout[kout[0]])
             end = abs(tk - t1) <= 1e-12 * max(1.0, abs(t1))
@@ -634,7 +664,7 @@ class _Run:
     def _saved(self) -> tuple[np.ndarray, ...]:
         w = self.w
         return (w.st, w.it, w.role, w.fcols, w.q0, w.qd0, w.qdd0, w.x0, w.v0, w.w0, w.kx, w.kv,
-                w.kw, w.ke_pe, w.xprev, w.vprev, w.aprev, w.wprev, w.pprev)
+                w.kw, w.ke_pe, w.xprev, w.vprev, w.aprev, w.wprev, w.pprev, self.dyn.v.law)
 
     def _restore(self, snap: list[np.ndarray]) -> None:
         for dst, src in zip(self._saved(), snap, strict=True):
@@ -665,24 +695,27 @@ class _Run:
         g0 = self.g_start
         t0 = float(snap[0][stp.T])
         g1 = self.laws.signs(S, float(w.st[stp.T]))
-        changed = np.flatnonzero(np.sign(g0) * np.sign(g1) < 0)
+        changed = np.flatnonzero(_crossed(g0, g1))
         if changed.size == 0:
             self.g_start = g1
             return False
         hnext = float(w.st[stp.HNEXT])
-        # the earliest root of the changed functions: Illinois on the step length
+        # the earliest root of the changed functions: regula falsi on the step length with
+        # the Illinois halving, candidates only from functions that change in the bracket
         lo, hi = 0.0, h
-        glo, ghi = g0[changed], g1[changed]
+        glo, ghi = g0[changed].copy(), g1[changed].copy()
         tol = 1e-12 * max(1.0, abs(t0)) + 1e-13
-        for _ in range(60):
+        side = 0
+        for _ in range(80):
             if hi - lo <= tol:
                 break
-            # secant estimate of the first crossing among the changed functions
+            inside = _crossed(glo, ghi)
             with np.errstate(divide="ignore", invalid="ignore"):
-                cand = lo + (hi - lo) * glo / (glo - ghi)
+                cand = lo + (hi - lo) * glo[inside] / (glo[inside] - ghi[inside])
             cand = cand[np.isfinite(cand)]
             hm = float(np.min(cand)) if cand.size else 0.5 * (lo + hi)
-            hm = min(max(hm, lo + 0.01 * (hi - lo)), hi - 0.01 * (hi - lo))
+            if not lo < hm < hi:
+                hm = 0.5 * (lo + hi)
             gm = self._take(S, snap, hm)
             if gm is None:
                 hm = 0.5 * (lo + hi)
@@ -690,19 +723,28 @@ class _Run:
                 if gm is None:
                     break
             gm = gm[changed]
-            if np.any(np.sign(glo) * np.sign(gm) < 0):
+            if np.any(_crossed(glo, gm)):
                 hi, ghi = hm, gm
+                if side == 1:  # Illinois: the kept end's values halved
+                    glo = 0.5 * glo
+                side = 1
             else:
                 lo, glo = hm, gm
+                if side == -1:
+                    ghi = 0.5 * ghi
+                side = -1
         g_end = self._take(S, snap, hi)
         if g_end is None:  # keep the step as first taken
             g_end = self._take(S, snap, h)
             hi = h
+            if g_end is None:
+                raise AnalysisError(f"t = {t0:.9g} s: the step could not be taken again to "
+                                    "locate a law's switching (a law that keeps a state?)")
         t_ev = t0 + hi
         for i in changed:
-            if np.sign(g0[i]) * np.sign(g_end[i]) < 0 if g_end is not None else True:
+            if _crossed(g0[i:i + 1], g_end[i:i + 1])[0]:
                 name = self.laws.switches[i][1]
-                self.events.append(Event(t_ev, name, 1 if g0[i] < 0 else -1))
+                self.events.append(Event(t_ev, name, 1 if g0[i] <= 0 else -1))
         w.st[stp.HNEXT] = hnext
         # the law switched: the derivatives of the start are those after the switch
         code = self._evaluate_start(S)
@@ -739,6 +781,12 @@ class _Run:
     def fgc_names(self) -> tuple[str, ...]:
         w = self.w
         return tuple(self.system.var_names[int(c)] for c in w.fcols[:int(w.it[stp.NF])])
+
+
+def _crossed(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Where a switching function went from one side of zero to the other (> 0 is one
+    side, <= 0 the other: reaching exactly zero from above counts)."""
+    return (np.asarray(a) > 0) != (np.asarray(b) > 0)
 
 
 def _pivot_columns(data: Any, rank: int) -> np.ndarray:
@@ -797,14 +845,16 @@ def simulate(
     free coordinates' positions and rates, internal units, atol = rtol by
     default) or ``"book"`` (the book's linearized exponential step with the force
     error ``force_tol`` = (force in model units, percent), IMP's ZERO (FORCE)).
-    Steps are never longer than ``max_step`` (default the output spacing) nor
-    shorter than ``min_step`` (IMP's DATA TIME minimum). ``tol``: loop closure;
+    Steps are never longer than ``max_step`` (default: the whole run for ``rk``,
+    whose outputs are interpolated inside its steps and closed there; the output
+    spacing for ``book``, the book's rule) nor shorter than ``min_step`` (IMP's
+    DATA TIME minimum). ``tol``: loop closure;
     ``mass_tol``: the singularity test of the mass matrix (IMP's ZERO (INERTIA)).
     Load laws with a ``switch`` function are switched at the located instant
     (``events``).  ``progress``: a bar on a terminal (None: when stderr is one),
     False, or a callable(t, t_final).  ``stream``: a .csv path receiving every
-    output as it is computed; with ``keep=False`` only the last output stays in
-    memory.
+    output as it is computed; with ``keep=False`` only the first and the last
+    outputs stay in memory.
 
     Returns a :class:`~openimp.results.Trajectory` at the output times with rates,
     ``energy`` (:class:`~openimp.results.EnergyAudit`), ``closure``, ``quality``,
@@ -839,7 +889,9 @@ def simulate(
         if first_step is None else _positive("first_step", first_step)
     for name, v in (("tol", tol), ("pivot_tol", pivot_tol), ("mass_tol", mass_tol)):
         _positive(name, v)
-    if not isinstance(max_steps, int) or max_steps < 1:
+    if isinstance(max_steps, np.integer):
+        max_steps = int(max_steps)
+    if not isinstance(max_steps, int) or isinstance(max_steps, bool) or max_steps < 1:
         raise InputError(f"max_steps must be a positive integer, got {max_steps!r}")
     if stream is None and not keep:
         raise InputError("keep=False needs stream= (the outputs must go somewhere)")
@@ -861,8 +913,8 @@ def simulate(
         drive.at(tout, r.mo)
     r.start(S, float(tout[0]), q_given, qd_given, float(pivot_tol), float(tol))
     r._names_before = r.fgc_names()
-    out = _Outputs(system, tout, bool(keep), stream)
     bar = _Progress(progress, float(tout[0]), float(tout[-1]))
+    out = _Outputs(system, tout, bool(keep), stream)
     message = ""
     wall = _time.perf_counter()
     try:
@@ -889,8 +941,8 @@ def simulate(
         if stopped[0]:
             message = (f"t = {float(r.w.st[stp.T]):.6g} s: interrupted by the user (Ctrl-C); "
                        "the outputs before it are kept")
-    except AnalysisError as exc:
-        message = str(exc)
+    except (AnalysisError, InputError) as exc:  # a user's motion or law failing mid-run
+        message = f"t = {float(r.w.st[stp.T]):.6g} s: {exc}"
     finally:
         bar.done()
         out.flush()
@@ -904,7 +956,9 @@ def _response(system: System, r: _Run, out: _Outputs, drive: _Drive, scols: np.n
     """The trajectory of the recorded outputs (model units out of the internal rows)."""
     t, q, qd, qdd, fgc, quality, closure, en = out.rows()
     n = t.size
-    res = Trajectory(system, q, quality, np.zeros(n, np.int64), fgc, np.zeros(n, np.int64),
+    # the mobility at each output is the number of generalized coordinates (6.52)
+    rank = system.nq - fgc.sum(axis=1).astype(np.int64) - scols.size
+    res = Trajectory(system, q, quality, rank, fgc, np.zeros(n, np.int64),
                      list(drive.names), message, tracker=tracker(system), sgc=_sgc(system, scols))
     res.set_rates(qd, qdd, np.zeros(n))
     res.time = t
@@ -913,8 +967,8 @@ def _response(system: System, r: _Run, out: _Outputs, drive: _Drive, scols: np.n
     e = en * system.length_scale ** 2
     res.energy = EnergyAudit(e[:, 0].copy(), e[:, 1].copy(), e[:, 2].copy(), e[:, 3].copy(),
                              e[:, 4].copy())
-    first = out.count - n  # rows dropped without keep
-    res.coordinate_switches = [CoordinateSwitch(max(k - first, 0), ts, old, new)
+    # without keep only the first and last outputs remain: a switch is then at the last
+    res.coordinate_switches = [CoordinateSwitch(k if out.keep else min(k, n - 1), ts, old, new)
                                for k, ts, old, new in r.switches]
     res.events = list(r.events)
     res.interrupted = "interrupted by the user" in message

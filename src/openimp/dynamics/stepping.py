@@ -47,7 +47,7 @@ from openimp.system import DAMPER, SPRING, data_views, dyn_data_views, dyn_views
 
 # ------------------------------------------------------------------ codes
 #: what a stage or an attempt found
-OK, NO_CLOSURE, SINGULAR_MASS, LOST_COORDINATES, TOO_LARGE = 0, 1, 2, 3, 4
+OK, NO_CLOSURE, SINGULAR_MASS, LOST_COORDINATES, TOO_LARGE, UNDERFLOW = 0, 1, 2, 3, 4, 5
 #: what an attempt decided
 ACCEPTED, REJECTED, FAILED = 0, 1, 2
 #: what a run returned
@@ -55,8 +55,8 @@ REACHED, SWITCHED, STOPPED, CAPPED, FULL = 0, 1, 2, 3, 4
 
 #: float scalars of w.st
 (T, H, HNEXT, RTOL, ATOL, HMIN, HMAX, PTOL, CTOL, MTOL, FABS, FPCT, FSCALE, KE, PE,
- CLOSURE, QUALITY, SMALLEST, LARGEST, ERR, XMAX, QREF, TPREV, CLOS0, QUAL0,
- NST) = range(26)
+ CLOSURE, QUALITY, SMALLEST, LARGEST, ERR, XMAX, QREF, TPREV, CLOS0, QUAL0, LSCALE,
+ NST) = range(27)
 #: integer scalars of w.it
 (NF, NS, STEPS, REJECTS, EVALS, CLOSES, MAXIT, HAVE_K0, HAVE_LIN, WHY, FORCED,
  NIT) = range(12)
@@ -350,6 +350,21 @@ def evaluate(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarr
             acc += G[a, k] * w.ag[k]
         S.qdd[a] = acc
     _powers(KP, DP, YP, ZP, S, nf, cols, w)
+    # the scale of the generalized loads term by term (the net force vanishes at rest)
+    big = 0.0
+    for k in range(nf):
+        if w.role[cols[k]] != 1:
+            continue
+        sc = 0.0
+        for b in range(z.Fext.shape[0]):
+            p = 0.0
+            for i6 in range(6):
+                p += z.W[b, k, i6] * z.Fext[b, i6]
+            sc += abs(p)
+        for a in range(nq):
+            sc += abs(G[a, k] * z.fq[a])
+        big = max(big, sc * w.gscale[cols[k]])
+    w.st[LSCALE] = big
     w.st[KE] = ke
     w.st[PE] = pe
     d = data_views(DP)
@@ -650,7 +665,13 @@ def book_linearize(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
             moving = 1.0
     o[3] = moving
     o[4] = 0.0
-    nf, _, _ = linearize_kernel(KP, DP, YP, ZP, S, gen, o, w.psid, w.rhs, w.lin, w.lwork)
+    nf, _, status = linearize_kernel(KP, DP, YP, ZP, S, gen, o, w.psid, w.rhs, w.lin,
+                                     w.lwork)
+    if status != 0:  # a closure of the motion terms failed: the book's K at rest
+        for a in range(nq):
+            S.q[a] = w.q0[a]
+        o[3] = 0.0
+        nf, _, _ = linearize_kernel(KP, DP, YP, ZP, S, gen, o, w.psid, w.rhs, w.lin, w.lwork)
     for a in range(nq):
         S.sgc[a] = w.keep[a]
     w.it[EVALS] += 1 + 2 * nf
@@ -782,11 +803,13 @@ def book_finish(S: tuple, w: Work) -> int:
         gs = w.gscale[w.fcols[i]]
         err = max(err, abs(e) * gs)
         fmax = max(fmax, abs(f) * gs, abs(w.lin[3][w.iF[i]]) * gs)
-    w.st[FSCALE] = max(w.st[FSCALE], fmax)
+    w.st[FSCALE] = max(w.st[FSCALE], fmax, w.st[LSCALE])
     tol = w.st[FABS]
     pct = 0.01 * w.st[FPCT] * w.st[FSCALE]
     if pct > 0.0:
         tol = min(tol, pct)
+    if err != err:  # NaN: the step is unusable
+        err = math.inf
     w.st[ERR] = err / tol
     if err > 2.0 * tol and h > w.st[HMIN] * (1.0 + 1e-12):
         w.st[HNEXT] = 0.5 * h
@@ -847,24 +870,6 @@ def begin_step(w: Work, t_end: float) -> float:
         h = t_end - t
     w.st[H] = h
     return h
-
-
-@njit(nrt=False)
-def restart(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | None,
-            w: Work) -> int:
-    """Evaluate the start state again (after a change of coordinates or a law's switch):
-    the loops closed at w.q0 with the FGCs and SGCs held, the equations there, and
-    the start taken from it.  Returns OK or a failure code."""
-    for j in range(w.it[NF]):
-        w.xs[j] = w.x0[j]
-        w.vs[j] = w.v0[j]
-    S.t[0] = w.st[T]
-    st = close_stage(KP, DP, S, gen, w, 0.0, 0)
-    if st == OK:
-        st = evaluate(KP, DP, YP, ZP, S, gen, w, 0)
-    if st == OK:
-        start_state(S, w)
-    return st
 
 
 # ------------------------------------------------------------------ outputs
@@ -958,7 +963,7 @@ def outputs(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarra
     while kout[0] < n:
         tk = tout[kout[0]]
         end = abs(tk - t1) <= 1e-12 * max(1.0, abs(t1))
-        if tk > t1 and not end:
+        if not _reached(tk, t1):
             break
         if end:
             record(S, w, ob, kout[0] - base, tk, True)
@@ -971,15 +976,27 @@ def outputs(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarra
     return OK
 
 
+@njit(nrt=False, inline="always")
+def _reached(tk: float, t1: float) -> bool:
+    """Output time tk is reached by a step ending at t1 (the test of :func:`outputs`)."""
+    return tk <= t1 + 1e-12 * max(1.0, abs(t1))
+
+
 @njit(nrt=False)
-def room(w: Work, tout: np.ndarray, kout: np.ndarray, base: int, cap: int) -> bool:
+def fit(w: Work, tout: np.ndarray, kout: np.ndarray, base: int, cap: int) -> bool:
     """True when the output rows left hold every output the next step (w.st[H]) may
-    reach."""
+    reach; with the rows all free the step is shortened to fit them; False when they
+    must be flushed first."""
     t1 = w.st[T] + w.st[H]
     k = kout[0]
-    while k < tout.shape[0] and tout[k] <= t1 * (1.0 + 1e-12) + 1e-300:
+    while k < tout.shape[0] and _reached(tout[k], t1):
         k += 1
-    return k - base <= cap
+    if k - base <= cap:
+        return True
+    if kout[0] > base:
+        return False
+    w.st[H] = tout[base + cap - 1] - w.st[T]
+    return True
 
 
 @njit(nrt=False, inline="always")
@@ -991,6 +1008,8 @@ def _after(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray
         return STOPPED
     if code == REJECTED:
         if h <= w.st[HMIN] * (1.0 + 1e-12) or h <= 1e-14 * max(1.0, abs(w.st[T])):
+            if w.it[WHY] == OK:
+                w.it[WHY] = UNDERFLOW
             return STOPPED
         return -1
     if last:
@@ -1017,9 +1036,10 @@ def run_rk(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray
     s0 = w.it[STEPS]
     t_end = tout[tout.shape[0] - 1]
     while kout[0] < tout.shape[0]:
-        h = begin_step(w, t_end)
-        if not room(w, tout, kout, base, cap):
+        begin_step(w, t_end)
+        if not fit(w, tout, kout, base, cap):
             return FULL
+        h = w.st[H]
         last = w.st[T] + h >= t_end
         code = _after(KP, DP, YP, ZP, S, gen, w, rk_attempt(KP, DP, YP, ZP, S, gen, w), h,
                       last, t_end, tout, kout, ob, base)
@@ -1039,9 +1059,10 @@ def run_book(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarr
     s0 = w.it[STEPS]
     t_end = tout[tout.shape[0] - 1]
     while kout[0] < tout.shape[0]:
-        h = begin_step(w, t_end)
-        if not room(w, tout, kout, base, cap):
+        begin_step(w, t_end)
+        if not fit(w, tout, kout, base, cap):
             return FULL
+        h = w.st[H]
         last = w.st[T] + h >= t_end
         code = _after(KP, DP, YP, ZP, S, gen, w, book_attempt(KP, DP, YP, ZP, S, gen, w), h,
                       last, t_end, tout, kout, ob, base)
