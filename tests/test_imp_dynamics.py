@@ -138,6 +138,34 @@ def test_pendulum_ic_in_degrees_or_value_radians(tmp_path, ic) -> None:
     assert np.max(np.abs(a - ref)) < 0.02
 
 
+def test_value_load_reads_the_posture_while_integrating(tmp_path) -> None:
+    """A joint torque given by a VALUE that reads POSITION(A, 1) (radians) acts at every
+    instant of the integration: a torsion spring of 3 N m/rad at the pin."""
+    k = 3.0
+    p = write(tmp_path, PEND + f"VALUE (TQ) = 0 - {k} * POSITION(A, 1)\nDATA TORQUE (A) = TQ\n"
+              "FIND DYNAMICS\nDATA TIME = 1.0, 0, 0.05\nLIST POSITION (A)\nEXECUTE\nEND\n")
+    run = run_deck(p)[0][0]
+    assert not run.failure and not any("undefined" in m for m in run.messages), run.messages
+    t = column(run, "LIST POSITION", "joint A", "Time")
+
+    def rhs(_t: float, y: np.ndarray) -> list[float]:
+        return [y[1], (-PEND_M * G * PEND_L / 2 * math.cos(y[0]) - k * y[0]) / PEND_IA]
+
+    ref = solve_ivp(rhs, (0.0, 1.0), [0.0, 0.0], t_eval=t, rtol=1e-11, atol=1e-12).y[0]
+    a = column(run, "LIST POSITION", "joint A", "JVar 1")
+    assert np.max(np.abs(a - np.degrees(ref))) < 0.02
+
+
+def test_data_time_final_zero_lists_the_start(tmp_path) -> None:
+    p = write(tmp_path, PEND + "FIND DYNAMICS\nDATA IC (A) = 10, 0\nDATA TIME = 0, 0, 0.1\n"
+              "LIST POSITION (A)\nPRINT HEADING\nEXECUTE\nEND\n")
+    run = run_deck(p)[0][0]
+    assert not run.failure, run.failure
+    rows = np.asarray(run.table("LIST POSITION", "joint A").rows)
+    np.testing.assert_allclose(rows, [[0.0, 10.0]], atol=1e-9)
+    assert len(run.table("PRINT HEADING", "energy").rows) == 1
+
+
 def test_pendulum_pivot_load_at_release_is_the_dynamic_convention(tmp_path) -> None:
     """Released horizontal at rest: the bar's load on BASE (the second-named link on
     the first, on BASE's axes) is -(m g + m alpha L/2) along Y, alpha = -m g (L/2) / I_A."""

@@ -85,21 +85,27 @@ class ValueLaws:
 
     The runner sets :attr:`resolve_at` (step -> the VALUE resolver of that solved
     step) and :attr:`times` before the force analysis; messages about undefined
-    values go to :attr:`notes` (each once).
+    values go to :attr:`notes` (each once).  While a time response is integrated
+    the dynamic runner sets :attr:`resolve_state` instead (the load state of the
+    moment -> its resolver), so that a VALUE may read the posture.
     """
 
     values: dict[str, Any]
     resolve_at: Callable[[int], Any] | None = None
     times: np.ndarray | None = None
+    resolve_state: Callable[[Any], Any] | None = None
     notes: list[str] = field(default_factory=list)
     _told: set[tuple[str, str]] = field(default_factory=set)
 
     def value(self, name: str, step: int, label: str, where: Where,
-              t: float | None = None) -> float:
+              t: float | None = None, state: Any = None) -> float:
         """The VALUE ``name`` at ``step`` (0 when undefined, with a message).  Without
-        :attr:`resolve_at` (a search, not a solved motion) only TIME is known: ``t``."""
+        :attr:`resolve_at` (a search, not a solved motion) only TIME is known: ``t``;
+        with :attr:`resolve_state`, what the load ``state`` knows."""
         if self.resolve_at is not None:
             resolve = self.resolve_at(step)
+        elif self.resolve_state is not None and state is not None:
+            resolve = self.resolve_state(state)
         elif t is not None:
             def resolve(kind: str, _name: str | None, _comp: int, t: float = t) -> float:
                 return t if kind == "TIME" else math.nan
@@ -130,7 +136,7 @@ class ValueLaws:
         """A function of the load state: the number ``datum * scale`` or the VALUE
         ``datum`` (already per radian / in radians: not scaled)."""
         if isinstance(datum, str):
-            return lambda s, n=datum: self.value(n, s.step, label, where, s.t)
+            return lambda s, n=datum: self.value(n, s.step, label, where, s.t, s)
         c = 0.0 if datum is None else float(datum) * scale
         return lambda s: c
 

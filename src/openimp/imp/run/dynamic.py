@@ -35,25 +35,19 @@ import numpy as np
 
 from openimp.errors import AnalysisError, InputError
 from openimp.imp.expr import Expression, SimulationStop
-from openimp.imp.run.kinematic import Motions, _halted
+from openimp.imp.jointmap import imp_variables
+from openimp.imp.run.kinematic import Motions, _halted, _time_only
 from openimp.imp.run.prepare import Driver, Prepared
 from openimp.imp.run.quantities import _imp_variable
 from openimp.imp.run.solution import Solution
 from openimp.kinematics.track import tracker
 from openimp.results import Trajectory
 
+_NAN = math.nan
+
 #: the integrator of IMP decks: IMP's own, the book's locally linearized steps (ch 14)
 METHOD = "book"
 
-_NAN = math.nan
-
-
-def _time_only(t: float) -> Callable[[str, str | None, int], float]:
-    """A VALUE resolver that knows the time only (the posture is not solved yet)."""
-    def resolve(kind: str, name: str | None, comp: int) -> float:
-        return t if kind == "TIME" else _NAN
-
-    return resolve
 
 
 class ValueMotion:
@@ -267,13 +261,75 @@ def _mobility(res: Any, nsgc: int) -> None:
         res._cache.pop("mobility", None)
 
 
+def state_resolver(prep: Prepared) -> Callable[[Any], Callable[[str, str | None, int], float]]:
+    """Load state of an instant of the integration -> the VALUE resolver there: TIME,
+    the position and velocity of a joint variable (radians or lengths, IMP's sign) and
+    the position of a point; what the state does not hold (accelerations, forces, a
+    point's velocity) is undefined."""
+    system = prep.system
+    model = prep.built.model
+
+    def at(s: Any) -> Callable[[str, str | None, int], float]:
+        def resolve(kind: str, name: str | None, comp: int) -> float:
+            if kind == "TIME":
+                return float(s.t)
+            if name is None or kind not in ("POSITION", "VELOCITY"):
+                return _NAN
+            if name in prep.built.joints:
+                ij = prep.built.joints[name][0]
+                keys = system.var_names[system.joint_vars(name)]
+                q = np.array([[s.var(k) for k in keys]])
+                qd = np.array([[s.var_rate(k) for k in keys]])
+                p, v, _ = imp_variables(ij, q, qd, None)
+                arr = p if kind == "POSITION" else v
+                return (float(arr[0, comp - 1]) if arr is not None and 1 <= comp <= arr.shape[1]
+                        else _NAN)
+            if name in model.points and kind == "POSITION" and 1 <= comp <= 3:
+                return float(s.point(name)[comp - 1])
+            return _NAN
+
+        return resolve
+
+    return at
+
+
+def _integrate(prep: Prepared, span: np.ndarray, start: np.ndarray | None,
+               notes: list[str], progress: Callable[[int, int], None] | None) -> Any:
+    """:func:`openimp.simulate` over the output times ``span`` with the deck's initial
+    conditions, motions and tolerances; VALUE laws read the state of each instant."""
+    from openimp.dynamics.response import simulate
+
+    q0, rates = initial_conditions(prep, float(span[0]), notes)
+    laws = prep.built.dyn.laws
+    if laws is not None:
+        laws.times = None
+        laws.resolve_at = None
+        laws.resolve_state = state_resolver(prep)
+    try:
+        return simulate(prep.system, times=span, q0=_start(prep, start, q0),
+                        rates=rates or None, motion=motions(prep, notes) or None,
+                        progress=_progress(progress, span), **options(prep, span, notes))
+    finally:
+        if laws is not None:
+            laws.resolve_state = None
+            for m in laws.notes:
+                if m not in notes:
+                    notes.append(m)
+            laws.notes.clear()
+
+
+def _failed(exc: Exception, t0: float, empty: Trajectory, times: np.ndarray) -> Solution:
+    """The solution of a run the integrator refused or could not start."""
+    why = str(exc).rstrip(". ")
+    if not why.startswith("t = "):
+        why = f"the run stopped at the start (time {t0:.6f}): {why}"
+    return Solution(empty, times[:0], f"{why}. No position was solved")
+
+
 def solve(prep: Prepared, times: np.ndarray, start: np.ndarray | None,
           notes: list[str], progress: Callable[[int, int], None] | None = None) -> Solution:
     """Integrate a dynamic run over its output times (see the module docstring)."""
-    from openimp.dynamics.response import simulate
-
-    system = prep.system
-    empty = Trajectory.empty(system, tracker(system))
+    empty = Trajectory.empty(prep.system, tracker(prep.system))
     pre = Motions(prep, times, notes)  # the motions at the output times: RETURN, END, limits
     pre.fill(0, len(times), None)
     n = len(times) if pre.halt is None else pre.halt.step
@@ -282,31 +338,20 @@ def solve(prep: Prepared, times: np.ndarray, start: np.ndarray | None,
         _halted(sol, prep, times, pre)
         return sol
     out_times = np.asarray(times[:n], dtype=float)
-    q0, rates = initial_conditions(prep, float(out_times[0]), notes)
-    laws = prep.built.dyn.laws
-    if laws is not None:  # while integrating a VALUE knows the time only
-        laws.times = None
-        laws.resolve_at = None
+    # a single output (DATA TIME final 0): the start, from a run of one print step
+    span = out_times if n > 1 else np.array([out_times[0], out_times[0]
+                                             + float(prep.spec.state.time[2])])
     try:
-        res = simulate(system, times=out_times, q0=_start(prep, start, q0), rates=rates or None,
-                       motion=motions(prep, notes) or None,
-                       progress=_progress(progress, out_times),
-                       **options(prep, out_times, notes))
+        res = _integrate(prep, span, start, notes, progress)
     except (InputError, AnalysisError) as exc:
-        why = str(exc).rstrip(". ")
-        if not why.startswith("t = "):
-            why = f"the run stopped at the start (time {out_times[0]:.6f}): {why}"
-        return Solution(empty, times[:0], f"{why}. No position was solved")
+        return _failed(exc, float(out_times[0]), empty, times)
     except KeyboardInterrupt:
         sol = Solution(empty, times[:0], "interrupted by the user (Ctrl-C) before the first "
                        "output time")
         sol.interrupted = True
         return sol
-    if laws is not None:
-        for m in laws.notes:
-            if m not in notes:
-                notes.append(m)
-        laws.notes.clear()
+    if n == 1 and res.nsteps > 1:
+        res = res.steps(0, 1)
     notes.extend(run_notes(prep, res))
     _mobility(res, len(prep.drivers))
     k = res.nsteps
