@@ -17,9 +17,12 @@ Two integrators (``method``):
   problems (springs far stiffer than the motion needs), whose high
   frequencies do not set its step.
 
-Without SGC motions and load laws the whole run between outputs is one
-compiled call; otherwise Python drives the same compiled stages step by step
-(the motions and laws are Python callables).
+Without SGC motions of time and load laws the run is compiled calls of up to
+:data:`CHUNK_STEPS` steps each (outputs interpolated and recorded inside);
+otherwise Python drives the same compiled stages step by step (the motions and
+laws are Python callables).  The works of the energy audit are integrated with
+the motion but not error-controlled: with drives or loads, a smaller
+``max_step`` tightens them.
 """
 
 from __future__ import annotations
