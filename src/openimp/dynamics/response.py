@@ -885,6 +885,8 @@ def simulate(
     # over outputs (they are interpolated and closed there)
     hmax = (spacing if method == "book" else span) if max_step is None else \
         _positive("max_step", max_step)
+    if hmin <= hmax * (1 + 1e-9):  # an output spacing a rounding under min_step
+        hmin = min(hmin, hmax)
     if hmin > hmax:
         raise InputError(f"min_step {hmin:g} s exceeds the largest step {hmax:g} s (the output "
                          "spacing or max_step)")
