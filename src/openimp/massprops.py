@@ -258,7 +258,7 @@ def check_inertia(J: Any) -> list[str]:
         A list of messages.  Checked: symmetry; a negative mass; a zero mass with
         non-zero first or second moments; centroidal principal moments that are
         negative or break the triangle inequality ``I1 + I2 >= I3`` (relative
-        tolerance 1e-9 of the largest).
+        tolerance 1e-9 of the largest of them and of the second moments of J).
 
     Raises:
         InputError: ``J`` is not a finite 4x4 array.
@@ -292,7 +292,9 @@ def check_inertia(J: Any) -> list[str]:
         return found
     _, _, I_c = centroidal(J)
     p = np.sort(np.linalg.eigvalsh(I_c))
-    tol = _TOL * float(np.max(np.abs(p)))
+    # the centroidal moments are J's second moments less m c c^T: their round-off is
+    # relative to those (a point mass off the origin has moments 0 within it)
+    tol = _TOL * max(float(np.max(np.abs(p))), float(np.max(np.abs(J[:3, :3]))))
     shown = ", ".join(_fmt(float(x)) for x in p)
     if p[0] < -tol:
         found.append(
