@@ -39,12 +39,9 @@ DEG = math.pi / 180
 
 
 def point_mass(s: Spec, body: str, m: float, c) -> None:
-    """A point mass m at c (global, modeling posture) on ``body`` (inertia=None).  Its
-    warnings are not asserted empty as Spec.add_mass does: openimp's inertia check
-    reports round-off of the centroidal moments of a point mass off the body origin
-    as negative moments (see test_response.test_point_mass_has_no_inertia_warnings)."""
-    s.model.add_mass(body, m, center=c)
-    s.mass[body] = (m, np.asarray(c, float), np.zeros((3, 3)))
+    """A point mass m at c (global, modeling posture) on ``body``: no inertia about its
+    centre (Spec.add_mass asserts that openimp finds it a valid rigid body)."""
+    s.add_mass(body, m, c, np.zeros((3, 3)))
 
 
 # ----------------------------------------------------------------------------- pendulum

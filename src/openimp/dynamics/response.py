@@ -39,6 +39,7 @@ import numpy as np
 
 from openimp.dynamics import stepping as stp
 from openimp.dynamics.laws import LoadState, law_values_at
+from openimp.dynamics.vibration import law_derivatives
 from openimp.errors import AnalysisError, InputError
 from openimp.kinematics.posture import newton
 from openimp.kinematics.track import tracker
@@ -402,11 +403,13 @@ class _Run:
         st[stp.XMAX] = XMAX
         st[stp.SMALLEST], st[stp.LARGEST] = math.inf, 0.0
         st[stp.HNEXT] = opts["first_step"]
+        st[stp.TFAIL] = math.nan  # the time of an output that failed (else the step's)
         it[stp.MAXIT] = MAXIT
         # Python callables (motions, laws) need the stage loop in Python; held
         # coordinates do not
         self.python = any(not isinstance(m, _Held) for m in drive.motions) or bool(system.laws)
         self.laws = _Laws(system, self.dyn) if system.laws else None
+        w.lopts[4] = 1.0 if system.laws else 0.0  # the book's closed postures, for the laws
         self.events_on = events and self.laws is not None and bool(self.laws.switches)
         self.switches: list[tuple[int, float, tuple[str, ...], tuple[str, ...]]] = []
         self.g_start: np.ndarray | None = None
@@ -456,7 +459,8 @@ class _Run:
         w.qdd0[:] = 0.0
         code = self._evaluate_start(S)
         if code != stp.OK:
-            raise AnalysisError(f"t = {t0:g} s: {self._why(code)}")
+            why = _massless(system, S) if code == stp.SINGULAR_MASS else ""
+            raise AnalysisError(f"t = {t0:g} s: {why or self._why(code)}")
         w.st[stp.QREF] = w.st[stp.QUALITY]
 
     def _choose_start(self, S: Any, qd_given: dict[int, float], pivot_tol: float) -> None:
@@ -538,16 +542,25 @@ class _Run:
         w, gen = self.w, self.system.gen
         h = float(w.st[stp.H])
         t = float(w.st[stp.T])
-        if self.book:
-            self._motion_rows(t + np.array([0.0] * (stp.NSTAGE - 1) + [h]))
+        if self.book:  # rows: 0 the start, 1 the middle, the last the end
+            self._motion_rows(t + np.array([0.0, 0.5 * h] + [0.0] * (stp.NSTAGE - 3) + [h]))
             w.it[stp.WHY] = stp.OK
             if w.it[stp.HAVE_LIN] == 0:
                 st = stp.book_linearize(KP, DP, YP, ZP, S, gen, w)
                 if st != stp.OK:
                     w.it[stp.WHY] = st
                     return stp.FAILED
+                if self.laws is not None:
+                    self._law_terms(t)
             st = stp.book_predict(w)
+            if st == stp.OK:  # the middle, for the works
+                stp.book_mid(w)
+                S.t[0] = t + 0.5 * h
+                st = stp.close_stage(KP, DP, S, gen, w, 0.5 * h, 1)
             if st == stp.OK:
+                st = self._evaluate(S, t + 0.5 * h, 1)
+            if st == stp.OK:
+                stp.book_end(w)
                 S.t[0] = t + h
                 st = stp.close_stage(KP, DP, S, gen, w, h, stp.NSTAGE - 1)
             if st == stp.OK:
@@ -567,6 +580,23 @@ class _Run:
                 return self._reject(st, h)
             stp.keep_stage(S, w, i)
         return stp.rk_finish(S, w)
+
+    def _law_terms(self, t: float) -> None:
+        """The load laws' stiffness and damping added to the book's D and K at the step
+        start (t): a law is then part of the step's linear model, not a force held
+        over the step (whose step would be first order in contact with a stop)."""
+        w = self.w
+        nf = int(w.it[stp.NF]) + w.scols.size
+        _, D, K, _, _, _, Gl, qpl, qdpl = w.lin
+        cols = w.lcols[:nf]
+        # the directions of the coordinates' motion and of their rates' (the side of a
+        # law's kink the step goes to)
+        acc = np.zeros(self.system.nq)
+        acc[w.fcols[:w.it[stp.NF]]] = w.kv[0, :w.it[stp.NF]]
+        acc[w.scols] = w.ms[0, :, 2]
+        law_derivatives(self.system, w.q0, self.dyn.v.Gf[:, :nf], cols, qpl[:nf],
+                        qdpl[:nf], Gl[:nf], w.psid, t, D[:nf, :nf], K[:nf, :nf], [],
+                        (w.psid[cols], acc[cols]))
 
     def _reject(self, st: int, h: float) -> int:
         w = self.w
@@ -597,6 +627,8 @@ class _Run:
             self.g_start = self.laws.signs(S, float(w.st[stp.T]))
         while kout[0] < tout.size:
             stp.begin_step(w, t_end)
+            if self.book:
+                stp.land(w, tout, kout)
             if not stp.fit(w, tout, kout, out.base, out.cap):
                 return stp.FULL
             h = float(w.st[stp.H])
@@ -646,18 +678,47 @@ class _Run:
             if end:
                 stp.record(S, w, out.ob, row, tk, True)
             else:
-                dt = stp.dense_point(w, tk)
-                if self.mo is not None:
-                    w.ms[0] = self.mo[kout[0]]
-                S.t[0] = tk
-                st = stp.close_stage(self.k[0], self.k[1], S, self.system.gen, w, dt, 0)
-                if st == stp.OK:
-                    st = self._evaluate(S, tk, 0)
+                st = self._dense_output(S, tk, int(kout[0]))
                 if st != stp.OK:
                     w.it[stp.WHY] = st
+                    w.st[stp.TFAIL] = tk
                     return st
                 stp.record(S, w, out.ob, row, tk, False)
+                if stp.works_change(w) and self._dense_works(S, tk) == stp.OK:
+                    stp.works_at(w, tk, out.ob, row)
             kout[0] += 1
+        return stp.OK
+
+    def _dense_output(self, S: Any, tk: float, k: int) -> int:
+        """:func:`~openimp.dynamics.stepping.dense_output` with the motions and laws here
+        (output k at tk inside the step just taken), short of recording the row."""
+        w, gen = self.w, self.system.gen
+        dt = stp.dense_point(w, tk)
+        if self.mo is not None:
+            w.ms[0] = self.mo[k]
+        S.t[0] = tk
+        st = stp.close_stage(self.k[0], self.k[1], S, gen, w, dt, 0)
+        if st == stp.OK:
+            st = self._evaluate(S, tk, 0)
+        return st
+
+    def _dense_works(self, S: Any, tk: float) -> int:
+        """:func:`~openimp.dynamics.stepping.dense_works` with the motions and laws here
+        (S evaluated at the output tk)."""
+        w, gen = self.w, self.system.gen
+        w.wq[:] = 0.0
+        t_last = tk
+        for i in range(stp.GL_X.size - 1, -1, -1):
+            tn = stp.works_node(w, tk, i)
+            self._motion_rows(np.array([tn]))
+            S.t[0] = tn
+            st = stp.close_near(self.k[0], self.k[1], S, gen, w, tn - t_last, 0)
+            if st == stp.OK:
+                st = self._evaluate(S, tn, 0)
+            if st != stp.OK:
+                return st
+            stp.works_add(w, i)
+            t_last = tn
         return stp.OK
 
     # ---- events: a law's switching function changed sign over the step
@@ -784,6 +845,19 @@ class _Run:
     def fgc_names(self) -> tuple[str, ...]:
         w = self.w
         return tuple(self.system.var_names[int(c)] for c in w.fcols[:int(w.it[stp.NF])])
+
+
+def _massless(system: System, S: Any) -> str:
+    """What moves without kinetic energy at the assembled start S (the vibration
+    analysis's diagnosis: the coordinates and the bodies), or "" when that finds M_FF
+    regular.  Imported here: a run that starts compiles no linearization."""
+    from openimp.dynamics.vibration import check_mass, linearize
+
+    try:
+        check_mass(linearize(system, S, motion_terms=False))
+    except (InputError, AnalysisError) as exc:
+        return str(exc) if "singular" in str(exc) else ""
+    return ""
 
 
 def _crossed(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -941,6 +1015,8 @@ def simulate(
                     message = (f"t = {tnow:.6g} s: {max_steps} steps taken (max_steps); raise "
                                "max_steps or loosen the tolerance")
                 else:
+                    tfail = float(r.w.st[stp.TFAIL])
+                    tnow = tfail if math.isfinite(tfail) else tnow
                     message = f"t = {tnow:.6g} s: {r._why(int(r.w.it[stp.WHY]))}"
                 break
         if stopped[0]:

@@ -56,7 +56,7 @@ REACHED, SWITCHED, STOPPED, CAPPED, FULL = 0, 1, 2, 3, 4
 #: float scalars of w.st
 (T, H, HNEXT, RTOL, ATOL, HMIN, HMAX, PTOL, CTOL, MTOL, FABS, FPCT, FSCALE, KE, PE,
  CLOSURE, QUALITY, SMALLEST, LARGEST, ERR, XMAX, QREF, TPREV, CLOS0, QUAL0, LSCALE,
- NST) = range(27)
+ MSCALE, TFAIL, NST) = range(29)
 #: integer scalars of w.it
 (NF, NS, STEPS, REJECTS, EVALS, CLOSES, MAXIT, HAVE_K0, HAVE_LIN, WHY, FORCED,
  NIT) = range(12)
@@ -77,6 +77,9 @@ RK_E = np.array([35.0 / 384.0 - 5179.0 / 57600.0, 0.0, 500.0 / 1113.0 - 7571.0 /
                  125.0 / 192.0 - 393.0 / 640.0, -2187.0 / 6784.0 + 92097.0 / 339200.0,
                  11.0 / 84.0 - 187.0 / 2100.0, -1.0 / 40.0])
 NSTAGE = 7
+#: 3-point Gauss-Legendre nodes on [0, 1] and weights (exact to degree 5)
+GL_X = np.array([0.5 - math.sqrt(15.0) / 10.0, 0.5, 0.5 + math.sqrt(15.0) / 10.0])
+GL_W = np.array([5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0])
 
 
 class Work(NamedTuple):
@@ -101,7 +104,8 @@ class Work(NamedTuple):
     the places of the FGCs and SGCs in it; gF (3, nq) the forcing terms;
     Minv (nq, nq) M_FF^-1.  xprev, vprev, aprev (nq,), wprev, pprev (3,): the FGC
     positions, rates, accelerations, the works and powers at the start of the
-    step just taken (w.st[TPREV]), for the outputs inside it.
+    step just taken (w.st[TPREV]), for the outputs inside it.  wq (3,): the powers
+    summed over the Gauss nodes of :func:`dense_works`.
     """
 
     st: np.ndarray
@@ -155,6 +159,7 @@ class Work(NamedTuple):
     aprev: np.ndarray
     wprev: np.ndarray
     pprev: np.ndarray
+    wq: np.ndarray
 
 
 def make_work(nq: int, ns: int, nb: int, nlaw: int) -> Work:
@@ -173,7 +178,7 @@ def make_work(nq: int, ns: int, nb: int, nlaw: int) -> Work:
                 np.zeros(nq, np.bool_), lin, lwork, f((n, n)), f((n, n)), f((n, n)),
                 f((n, n)), f((n, n)), f(nq), f(5), np.zeros(nq, np.int64),
                 np.zeros(nq, np.int64), np.zeros(nq, np.int64), f((3, nq)), f((nq, nq)),
-                f(nq), f(nq), f(nq), f(3), f(3))
+                f(nq), f(nq), f(nq), f(3), f(3), f(3))
 
 
 # ------------------------------------------------------------------ the stage
@@ -183,10 +188,29 @@ def close_stage(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, w: Work,
     """Close the loops at the stage state: every joint variable predicted from the step
     start over dt (second-order Taylor), the FGCs at w.xs, the SGCs at w.ms[srow];
     Newton holding both.  Returns OK or NO_CLOSURE."""
+    for a in range(S.q.shape[0]):
+        S.q[a] = w.q0[a] + dt * w.qd0[a] + 0.5 * dt * dt * w.qdd0[a]
+    return _close(KP, DP, S, gen, w, srow)
+
+
+@njit(nrt=False)
+def close_near(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, w: Work,
+               dt: float, srow: int) -> int:
+    """:func:`close_stage` predicted from the posture last evaluated in S (its q, qd,
+    qdd) over dt: a point near it, not near the step start."""
+    for a in range(S.q.shape[0]):
+        S.q[a] += dt * S.qd[a] + 0.5 * dt * dt * S.qdd[a]
+    return _close(KP, DP, S, gen, w, srow)
+
+
+@njit(nrt=False, inline="always")
+def _close(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, w: Work,
+           srow: int) -> int:
+    """Newton from the predicted S.q holding the FGCs at w.xs and the SGCs at
+    w.ms[srow]; the quality index into w.st[QUALITY].  OK or NO_CLOSURE."""
     nq = S.q.shape[0]
     nF = w.it[NF]
     for a in range(nq):
-        S.q[a] = w.q0[a] + dt * w.qd0[a] + 0.5 * dt * dt * w.qdd0[a]
         w.keep[a] = S.sgc[a]
     for j in range(nF):
         S.q[w.fcols[j]] = w.xs[j]
@@ -204,11 +228,14 @@ def close_stage(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, w: Work,
 
 
 @njit(nrt=False, inline="always")
-def _cholesky_solve(A: np.ndarray, n: int, b: np.ndarray, x: np.ndarray, tol: float) -> bool:
+def _cholesky_solve(A: np.ndarray, n: int, b: np.ndarray, x: np.ndarray, tol: float,
+                    floor: float) -> bool:
     """x = A^-1 b for the symmetric positive definite A[:n, :n] (overwritten by its
-    Cholesky factor); False when a pivot falls below tol times the largest diagonal
-    (a singular mass matrix, IMP's ZERO (INERTIA))."""
-    big = 0.0
+    Cholesky factor); False when a pivot falls below tol times the larger of its
+    largest diagonal and ``floor`` (a singular mass matrix, IMP's ZERO (INERTIA)).
+    The floor is the matrix's scale when the coordinates were chosen: a matrix
+    that shrinks as a whole (a 1x1 m r^2 with r -> 0) is then singular too."""
+    big = floor
     for i in range(n):
         big = max(big, abs(A[i, i]))
     if n > 0 and big <= 0.0:
@@ -332,7 +359,10 @@ def evaluate(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarr
                 s += 1
         w.rhs[i] = r
         i += 1
-    if not _cholesky_solve(w.Lc, nF, w.rhs, w.aF, w.st[MTOL]):
+    if w.st[MSCALE] <= 0.0:  # the first evaluation with these coordinates
+        for i in range(nF):
+            w.st[MSCALE] = max(w.st[MSCALE], w.Lc[i, i])
+    if not _cholesky_solve(w.Lc, nF, w.rhs, w.aF, w.st[MTOL], w.st[MSCALE]):
         return SINGULAR_MASS
     i = 0
     s = 0
@@ -456,6 +486,7 @@ def choose(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, w: Work) -> b
             w.fcols[nF] = a
             nF += 1
     w.it[NF] = nF
+    w.st[MSCALE] = 0.0  # the scale of the new M_FF, at its first evaluation
     for j in range(nF):
         c = w.fcols[j]
         w.x0[j] = w.q0[c]
@@ -631,7 +662,9 @@ def book_linearize(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
                    gen: np.ndarray | None, w: Work) -> int:
     """M, D, K, F of ch 11 (11.7-11.10) at the step start, the FGCs and SGCs held, into
     w.lin (rows and columns in the column order w.lcols of the FGCs and SGCs), the
-    places of both in w.iF, w.iS and M_FF^-1 in w.Minv.  Returns OK,
+    places of both in w.iF, w.iS and M_FF^-1 in w.Minv.  With w.lopts[4] set the
+    closed postures are kept in w.lin for the derivatives of the load laws,
+    which the caller adds to D and K (laws are Python).  Returns OK,
     LOST_COORDINATES or SINGULAR_MASS."""
     z = dyn_data_views(ZP)
     nq = S.q.shape[0]
@@ -663,8 +696,7 @@ def book_linearize(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
     for s in range(nS):
         if w.ms[0, s, 1] != 0.0 or w.ms[0, s, 2] != 0.0:
             moving = 1.0
-    o[3] = moving
-    o[4] = 0.0
+    o[3] = moving  # o[4]: keep the closed postures for the laws' derivatives (the caller's)
     nf, _, status = linearize_kernel(KP, DP, YP, ZP, S, gen, o, w.psid, w.rhs, w.lin,
                                      w.lwork)
     if status != 0:  # a closure of the motion terms failed: the book's K at rest
@@ -694,7 +726,7 @@ def book_linearize(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
             for m in range(nF):
                 w.Lc[i, m] = M[w.iF[i], w.iF[m]]
             w.rhs[i] = 1.0 if i == j else 0.0
-        if not _cholesky_solve(w.Lc, nF, w.rhs, w.aF, w.st[MTOL]):
+        if not _cholesky_solve(w.Lc, nF, w.rhs, w.aF, w.st[MTOL], w.st[MSCALE]):
             return SINGULAR_MASS
         for i in range(nF):
             w.Minv[i, j] = w.aF[i]
@@ -781,6 +813,36 @@ def book_predict(w: Work) -> int:
 
 
 @njit(nrt=False)
+def book_mid(w: Work) -> None:
+    """After :func:`book_predict`: the linear solution at the step's middle into w.xs,
+    w.vs (the exponential of half the augmented matrix, w.Ab scaled in place), the
+    end's kept in w.xe, w.ve for :func:`book_end`."""
+    nF = w.it[NF]
+    n = 2 * nF + 3
+    for i in range(nF):
+        w.xe[i] = w.xs[i]
+        w.ve[i] = w.vs[i]
+    for i in range(n):
+        for j in range(n):
+            w.Ab[i, j] *= 0.5
+    expm(w.Ab, n, w.Eb, w.X2, w.X3)
+    for i in range(nF):
+        w.vs[i] = w.v0[i] + w.Eb[i, 2 * nF]
+        w.xs[i] = w.x0[i] + w.Eb[nF + i, 2 * nF]
+
+
+@njit(nrt=False)
+def book_end(w: Work) -> None:
+    """The powers evaluated at the step's middle into w.wq (for Simpson's rule in
+    :func:`book_finish`); the end's predicted state back into w.xs, w.vs."""
+    for k in range(3):
+        w.wq[k] = w.pw[k]
+    for i in range(w.it[NF]):
+        w.xs[i] = w.xe[i]
+        w.vs[i] = w.ve[i]
+
+
+@njit(nrt=False)
 def book_finish(S: tuple, w: Work) -> int:
     """The force error of the step just taken (S evaluated at its end, section 14.5):
     eps = M_FF (psi''_F - v'_F) in model units against IMP's ZERO (FORCE) =
@@ -823,9 +885,10 @@ def book_finish(S: tuple, w: Work) -> int:
         w.st[HNEXT] = 2.0 * h
     else:
         w.st[HNEXT] = h
-    # works over the step by the trapezoidal rule on the powers of its two ends
+    # works over the step by Simpson's rule: the powers at its ends and its middle
+    # (w.wq, :func:`book_end`), the motion there the linear model's
     for k in range(3):
-        w.ws[k] = w.w0[k] + 0.5 * h * (w.kw[0, k] + w.pw[k])
+        w.ws[k] = w.w0[k] + h / 6.0 * (w.kw[0, k] + 4.0 * w.wq[k] + w.pw[k])
     _accept(S, w, h)
     return ACCEPTED
 
@@ -835,7 +898,8 @@ def book_attempt(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
                  gen: np.ndarray | None, w: Work) -> int:
     """One attempt of the book's step of length w.st[H] (section 14.4, steps 4-15): the
     linearization at the start (once per start), the exponential solution, the
-    loops closed at the end, the equations there, the force error.  ACCEPTED or
+    loops closed at the middle (for the works) and the end, the equations there,
+    the force error.  ACCEPTED or
     REJECTED (w.it[WHY]: TOO_LARGE, NO_CLOSURE, ... or OK for the error test)."""
     w.it[WHY] = OK
     if w.it[HAVE_LIN] == 0:
@@ -843,10 +907,18 @@ def book_attempt(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
         if st != OK:
             w.it[WHY] = st
             return FAILED
+    h = w.st[H]
     st = book_predict(w)
+    if st == OK:  # the middle, for the works
+        book_mid(w)
+        S.t[0] = w.st[T] + 0.5 * h
+        st = close_stage(KP, DP, S, gen, w, 0.5 * h, 1)
     if st == OK:
-        S.t[0] = w.st[T] + w.st[H]
-        st = close_stage(KP, DP, S, gen, w, w.st[H], NSTAGE - 1)
+        st = evaluate(KP, DP, YP, ZP, S, gen, w, 1)
+    if st == OK:
+        book_end(w)
+        S.t[0] = w.st[T] + h
+        st = close_stage(KP, DP, S, gen, w, h, NSTAGE - 1)
     if st == OK:
         st = evaluate(KP, DP, YP, ZP, S, gen, w, NSTAGE - 1)
     if st != OK:
@@ -916,6 +988,74 @@ def dense_point(w: Work, tk: float) -> float:
 
 
 @njit(nrt=False)
+def works_change(w: Work) -> bool:
+    """The works changed over the step just taken by more than round-off (its end and
+    stage powers, its work increments against the energies and works): else an
+    output inside it needs no quadrature (a conservative system)."""
+    h = w.st[T] - w.st[TPREV]
+    scale = abs(w.ke_pe[0, 0]) + abs(w.ke_pe[0, 1])
+    big = 0.0
+    for k in range(3):
+        scale += abs(w.w0[k])
+        big = max(big, abs(w.w0[k] - w.wprev[k]), h * abs(w.pprev[k]))
+        for m in range(NSTAGE):
+            big = max(big, h * abs(w.kw[m, k]))
+    return big > 1e-13 * scale
+
+
+@njit(nrt=False)
+def works_node(w: Work, tk: float, i: int) -> float:
+    """Gauss node i of [w.st[TPREV], tk]: the FGC state there (:func:`dense_point`);
+    returns its time."""
+    tn = w.st[TPREV] + GL_X[i] * (tk - w.st[TPREV])
+    dense_point(w, tn)
+    return tn
+
+
+@njit(nrt=False)
+def works_add(w: Work, i: int) -> None:
+    """Add the powers w.pw evaluated at Gauss node i to w.wq."""
+    for k in range(3):
+        w.wq[k] += GL_W[i] * w.pw[k]
+
+
+@njit(nrt=False)
+def works_at(w: Work, tk: float, ob: tuple, row: int) -> None:
+    """The works of output row ``row`` at tk: the step start's plus the Gauss rule of
+    the powers over [w.st[TPREV], tk] (w.wq; error O(h^7), as the interpolated
+    motion's)."""
+    OEN = ob[7]
+    for k in range(3):
+        OEN[row, 2 + k] = w.wprev[k] + (tk - w.st[TPREV]) * w.wq[k]
+
+
+@njit(nrt=False)
+def dense_works(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
+                gen: np.ndarray | None, w: Work, tk: float) -> int:
+    """The powers at the 3 Gauss nodes of [w.st[TPREV], tk] along the interpolated
+    motion (loops closed, equations evaluated there; SGCs at w.ms[0]) summed into
+    w.wq for :func:`works_at`: the works at an output inside a step, as accurate
+    as its motion (the cubic Hermite of the ends' works and powers in
+    :func:`dense_point` is O(h^4)).  S is evaluated at tk on entry; the nodes are
+    taken back from there, each closed from the last (the step's end may be near
+    a limit of travel).  Returns OK or the failure code."""
+    for k in range(3):
+        w.wq[k] = 0.0
+    t_last = tk
+    for i in range(2, -1, -1):
+        tn = works_node(w, tk, i)
+        S.t[0] = tn
+        st = close_near(KP, DP, S, gen, w, tn - t_last, 0)
+        if st == OK:
+            st = evaluate(KP, DP, YP, ZP, S, gen, w, 0)
+        if st != OK:
+            return st
+        works_add(w, i)
+        t_last = tn
+    return OK
+
+
+@njit(nrt=False)
 def record(S: tuple, w: Work, ob: tuple, row: int, tk: float, end: bool) -> None:
     """Output row ``row`` of ob = (t, q, qd, qdd, fgc, quality, closure, energy (5:
     kinetic, potential, drive work, load work, dissipated)) at tk: the step's end
@@ -940,8 +1080,10 @@ def record(S: tuple, w: Work, ob: tuple, row: int, tk: float, end: bool) -> None
 def dense_output(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
                  gen: np.ndarray | None, w: Work, tk: float, ob: tuple, row: int) -> int:
     """The output at tk inside the step just taken (SGCs at w.ms[0]): the interpolated
-    FGCs, the loops closed there, the equations evaluated, the row recorded.
-    Returns OK or the failure code."""
+    FGCs, the loops closed there, the equations evaluated, the row recorded; its
+    works by :func:`dense_works` when they change (kept from the cubic of
+    :func:`dense_point` where a node cannot be closed).  Returns OK or the
+    failure code of the output."""
     dt = dense_point(w, tk)
     S.t[0] = tk
     st = close_stage(KP, DP, S, gen, w, dt, 0)
@@ -949,6 +1091,8 @@ def dense_output(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
         st = evaluate(KP, DP, YP, ZP, S, gen, w, 0)
     if st == OK:
         record(S, w, ob, row, tk, False)
+        if works_change(w) and dense_works(KP, DP, YP, ZP, S, gen, w, tk) == OK:
+            works_at(w, tk, ob, row)
     return st
 
 
@@ -971,6 +1115,7 @@ def outputs(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarra
             st = dense_output(KP, DP, YP, ZP, S, gen, w, tk, ob, kout[0] - base)
             if st != OK:
                 w.it[WHY] = st
+                w.st[TFAIL] = tk
                 return st
         kout[0] += 1
     return OK
@@ -980,6 +1125,20 @@ def outputs(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarra
 def _reached(tk: float, t1: float) -> bool:
     """Output time tk is reached by a step ending at t1 (the test of :func:`outputs`)."""
     return tk <= t1 + 1e-12 * max(1.0, abs(t1))
+
+
+@njit(nrt=False)
+def land(w: Work, tout: np.ndarray, kout: np.ndarray) -> None:
+    """The book's steps end on the output times: the time to the next output is cut
+    into equal steps of at most 1.1 times the proposed one (no short remainder
+    step, whose length would set the next proposal).  Its outputs are then step
+    ends, never interpolated (an interpolant through the ends' accelerations
+    carries the stiff modes its step damps)."""
+    if kout[0] < tout.shape[0]:
+        gap = tout[kout[0]] - w.st[T]
+        h = w.st[H]
+        if gap > 0.0 and h > 0.0:
+            w.st[H] = gap / max(1.0, math.ceil(gap / (1.1 * h)))
 
 
 @njit(nrt=False)
@@ -1060,6 +1219,7 @@ def run_book(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarr
     t_end = tout[tout.shape[0] - 1]
     while kout[0] < tout.shape[0]:
         begin_step(w, t_end)
+        land(w, tout, kout)
         if not fit(w, tout, kout, base, cap):
             return FULL
         h = w.st[H]

@@ -148,7 +148,7 @@ def linearize(system: System, q: Any = None, rates: Any = None, accels: Any = No
                            "coincide at this posture (no direction, so no force or stiffness)"
                            for i in np.flatnonzero(dyn.views("eskip"))]
     if nlaw:
-        _law_derivatives(system, S, G, cols, qpl[:nf], qdpl[:nf], Gl[:nf], psid, t, D, K,
+        law_derivatives(system, S.q, G, cols, qpl[:nf], qdpl[:nf], Gl[:nf], psid, t, D, K,
                          messages)
     # internal -> model units: rows are generalized forces (x gs), columns per unit
     # of coordinate (/ vs): X_model = gs_i X_int / vs_j
@@ -245,13 +245,21 @@ def _per_coordinate(system: System, values: Any, what: str) -> np.ndarray:
     return out
 
 
-def _law_derivatives(system: System, S: Any, G: np.ndarray, cols: np.ndarray,
-                     qpl: np.ndarray, qdpl: np.ndarray, Gl: np.ndarray, psid: np.ndarray,
-                     t: float, D: np.ndarray, K: np.ndarray, messages: list[str]) -> None:
+def law_derivatives(system: System, q: np.ndarray, G: np.ndarray, cols: np.ndarray,
+                    qpl: np.ndarray, qdpl: np.ndarray, Gl: np.ndarray, psid: np.ndarray,
+                    t: float, D: np.ndarray, K: np.ndarray, messages: list[str],
+                    sides: tuple[np.ndarray, np.ndarray] | None = None) -> None:
     """Add g_e dlaw_e/dpsi to K and g_e dlaw_e/dpsi' to D (internal units, in place):
     the laws are black boxes, differentiated by Richardson-extrapolated central
     differences over the closed postures of the kernel (positions) and over the
-    joint rates phi' (psi' + s e_k) (rates), at the generalized rates of the set point."""
+    joint rates phi' (psi' + s e_k) (rates), at the generalized rates of the set point.
+    q (nq,): the set point's joint variables; G (nq, nf) its first-order
+    coefficients, cols (nf,) its coordinates; qpl, qdpl (nf, 4, nq), Gl (nf, nlaw)
+    and D, K (nf, nf) of :func:`~openimp.dynamics.linear.linearize_kernel`.
+    ``sides`` (the time response): the directions (nf,) in which each coordinate
+    and each rate is moving; where a law has a kink inside the stencil (a stop's
+    contact, a one-way damper at rest) its slope is then taken on one side
+    (:func:`_kinked_slopes`), not averaged across the kink."""
     nf = G.shape[1]
     u = psid[cols]
     qd0 = G @ u
@@ -264,17 +272,55 @@ def _law_derivatives(system: System, S: Any, G: np.ndarray, cols: np.ndarray,
     s = 1e-4 * max(1.0, float(np.max(np.abs(u))) if nf else 1.0)
     for k in range(nf):
         for off in (-2.0, -1.0, 1.0, 2.0):
-            rows_q.append(S.q.copy())
+            rows_q.append(q.copy())
             rows_qd.append(qd0 + off * s * G[:, k])
+    if sides is not None:  # the laws at the set point itself, for one-sided slopes
+        rows_q.append(q.copy())
+        rows_qd.append(qd0)
     vals = law_values_at(system, np.array(rows_q), np.array(rows_qd), t)
     w = np.array([1.0, -8.0, 8.0, -1.0])
     nl = Gl.shape[1]
-    dpos = (w @ vals[:4 * nf].reshape(nf, 4, -1)) / (12.0 * h)  # (nf, nlaw)
-    drat = (w @ vals[4 * nf:].reshape(nf, 4, -1)) / (12.0 * s)
+    Pq = vals[:4 * nf].reshape(nf, 4, -1)
+    Pr = vals[4 * nf:8 * nf].reshape(nf, 4, -1)
+    dpos = (w @ Pq) / (12.0 * h)  # (nf, nlaw)
+    drat = (w @ Pr) / (12.0 * s)
+    if sides is not None:
+        dpos = _kinked_slopes(Pq, vals[8 * nf], h, sides[0], dpos)
+        drat = _kinked_slopes(Pr, vals[8 * nf], s, sides[1], drat)
     K -= Gl[:, :nl] @ dpos[:, :nl].T
     D -= Gl[:, :nl] @ drat[:, :nl].T
     messages.append("load laws differentiated numerically (central differences, "
                     "Richardson extrapolation)")
+
+
+def _kinked_slopes(P: np.ndarray, f0: np.ndarray, h: float, direction: np.ndarray,
+                   central: np.ndarray) -> np.ndarray:
+    """The slopes of laws with a kink in their stencil taken on one side.  P (nf, 4,
+    nlaw): the values at offsets (-2h, -h, h, 2h) of each coordinate; f0 (nlaw,) at
+    the point; direction (nf,): the sign of the motion; central (nf, nlaw): the
+    Richardson slopes, kept where the two sides agree (a smooth law) and where
+    neither side is straight (curvature, not a kink).  Where both sides are
+    straight but differ (the point on the kink: a located switch) the side the
+    motion goes to is taken; where one side is straight, that one (the kink lies
+    beyond the point on the other side)."""
+    fwd1 = (P[:, 2] - f0) / h
+    fwd2 = (P[:, 3] - f0) / (2.0 * h)
+    bwd1 = (f0 - P[:, 1]) / h
+    bwd2 = (f0 - P[:, 0]) / (2.0 * h)
+    tiny = 1e-9 * max(float(np.abs(P).max(initial=0.0)) / h, 1e-300)
+
+    def same(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        return np.abs(a - b) <= 1e-3 * np.maximum(np.abs(a), np.abs(b)) + tiny
+
+    kink = ~same(fwd1, bwd1)
+    f_ok, b_ok = same(fwd1, fwd2), same(bwd1, bwd2)
+    go = np.broadcast_to(np.sign(direction)[:, None], kink.shape)
+    use_f = kink & f_ok & (~b_ok | (go > 0))
+    use_b = kink & b_ok & (~f_ok | (go < 0))
+    # a kink between h and 2h: the inner points agree, the outer ones are off it
+    inner = 0.5 * (fwd1 + bwd1)
+    out = np.where(~kink & ~same(central, inner), inner, central)
+    return np.where(use_f, fwd1, np.where(use_b, bwd1, out))
 
 
 def _body_screws(system: System, dyn: Any, nf: int, cols: np.ndarray) -> np.ndarray:
@@ -344,6 +390,13 @@ def _free_blocks(lin: Linearization) -> tuple[np.ndarray, np.ndarray, np.ndarray
         MFF, DFF, KFF = (X[F][:, F] for X in (lin.M, lin.D, lin.K))
     _check_mass(lin, MFF)
     return MFF, DFF, KFF
+
+
+def check_mass(lin: Linearization) -> None:
+    """Raise InputError naming the free coordinates and the bodies that move without
+    kinetic energy when M_FF of ``lin`` is singular (the time response's diagnosis
+    of a singular mass matrix at its start)."""
+    _free_blocks(lin)
 
 
 def _check_mass(lin: Linearization, MFF: np.ndarray) -> None:
