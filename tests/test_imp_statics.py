@@ -728,6 +728,20 @@ def test_turning_point_note_is_in_the_listings_units(toggle) -> None:
 # =============================================================================
 # second review: a static path stays on its assembly branch; reach and names
 # =============================================================================
+def test_a_step_beyond_any_reach_is_refused_not_followed(tmp_path) -> None:
+    """DATA POSITION (A) = 9223372036854775808, ... (a fuzzed deck): the first step would
+    move the handle by 1.6e17 rad in 0.05 rad sub-steps (a hang); it is refused at once
+    with the input in IMP's terms (degrees, the joint's name)."""
+    text = re.sub(r"DATA POSITION \(A\) = [^\n]*", "DATA POSITION (A) = 9223372036854775808, "
+                  "3.011, 3.267", (EXAMPLES / "toggle_clamp.imp").read_text())
+    runs, _ = run_deck(write(tmp_path, text, "far.imp"))
+    r = runs[0]
+    assert "move too far in one step" in r.failure, r.failure
+    assert re.search(r"from A = 180\.0000 deg to A = 922337203\d{10}\.\d{4} deg", r.failure), \
+        r.failure
+    assert "A.theta" not in r.failure
+
+
 def test_toggle_path_stays_on_its_branch_and_stops_at_its_reach(tmp_path) -> None:
     """The toggle clamp's handle stepped past 218 degrees: the path flipped to the other
     assembly of the four-bar at 228 (the closure's predictor did not move the dependent

@@ -806,6 +806,8 @@ def test_forces_with_a_law_damper():
     (dict(), r"final time"),
     (dict(t_final=-1.0), r"t_final must be a positive"),
     (dict(t_final=1.0, print_step=0.0), r"print_step must be a positive"),
+    (dict(t_final=1e100, print_step=1e-13), r"t_final 1e\+100 s at print_step 1e-13 s makes "
+                                            r"1e\+113 outputs, more than 1e\+07"),
     (dict(t_final=1.0, q0={"Z": 0.1}), r"q0: 'Z' is not a joint variable.*A\.theta"),
     (dict(t_final=1.0, q0={"A": "x"}), r"q0: the value of 'A' must be a number"),
     (dict(t_final=1.0, q0=[0.1, 0.2, 0.3]), r"q0 must hold 4 finite numbers"),

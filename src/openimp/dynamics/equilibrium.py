@@ -797,6 +797,9 @@ def _path_step(system: System, search: _Search, S: State, k: int, tt: np.ndarray
 #: largest change of a stepped SGC per sub-step of its move (internal units: radians or
 #: internal lengths), so that the closure follows the branch (as a sweep does)
 SUBSTEP = 0.05
+#: most sub-steps of one move (1000 radians or internal lengths): a larger move is an
+#: input error, not a path to follow
+MAX_SUBSTEPS = 20000
 
 
 def _move_sgcs(search: _Search, S: State, pcols: list[int], targets: np.ndarray,
@@ -817,6 +820,17 @@ def _move_sgcs(search: _Search, S: State, pcols: list[int], targets: np.ndarray,
     if big == 0.0 or float(np.abs(search.E).max(initial=0.0)) > 1e-8:
         S.q[pc] = targets
         return
+    if big > MAX_SUBSTEPS * SUBSTEP:
+        vs = sy.var_scale[pc]
+
+        def at(x: np.ndarray) -> str:
+            return ", ".join(f"{sy.var_names[c]} = {v:.10g}" for c, v
+                             in zip(pc, x * vs, strict=True))
+
+        raise InputError(f"the specified coordinates move too far in one step, from "
+                         f"{at(start)} to {at(targets)}: more than "
+                         f"{MAX_SUBSTEPS * SUBSTEP:g} radians or internal lengths; give "
+                         "values within reach of the last step")
     n = max(1, math.ceil(big / SUBSTEP))
     for i in range(1, n + 1):
         if i > 1:

@@ -89,6 +89,10 @@ def _positive(name: str, v: Any, allow_zero: bool = False) -> float:
     return x
 
 
+#: most output times of a run (their times alone take 80 MB)
+MAX_OUTPUTS = 10_000_000
+
+
 def output_times(t_final: Any, print_step: Any, times: Any) -> np.ndarray:
     """The output times: ``times`` as given (increasing, finite, at least two), or 0,
     print_step, ... up to and including t_final."""
@@ -108,6 +112,9 @@ def output_times(t_final: Any, print_step: Any, times: Any) -> np.ndarray:
     tf = _positive("t_final", t_final)
     dt = tf if print_step is None else _positive("print_step", print_step)
     n = math.floor(tf / dt * (1 + 1e-12))
+    if n > MAX_OUTPUTS:
+        raise InputError(f"t_final {tf:g} s at print_step {dt:g} s makes {n:.3g} outputs, more "
+                         f"than {MAX_OUTPUTS:g}: give a larger print_step (or fewer times)")
     t = np.arange(n + 1) * dt
     if tf - t[-1] > 1e-9 * dt:
         t = np.append(t, tf)

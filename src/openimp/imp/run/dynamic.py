@@ -326,6 +326,10 @@ def _failed(exc: Exception, t0: float, empty: Trajectory, times: np.ndarray) -> 
     return Solution(empty, times[:0], f"{why}. No position was solved")
 
 
+#: the run's length when DATA TIME asks for the start alone (s)
+SINGLE_SPAN = 1e-3
+
+
 def solve(prep: Prepared, times: np.ndarray, start: np.ndarray | None,
           notes: list[str], progress: Callable[[int, int], None] | None = None) -> Solution:
     """Integrate a dynamic run over its output times (see the module docstring)."""
@@ -338,9 +342,11 @@ def solve(prep: Prepared, times: np.ndarray, start: np.ndarray | None,
         _halted(sol, prep, times, pre)
         return sol
     out_times = np.asarray(times[:n], dtype=float)
-    # a single output (DATA TIME final 0): the start, from a run of one print step
-    span = out_times if n > 1 else np.array([out_times[0], out_times[0]
-                                             + float(prep.spec.state.time[2])])
+    # a single output (DATA TIME final 0): the start, from a run of one print step, at
+    # most SINGLE_SPAN (only the start is kept; a print step of 1e100 s is not integrated)
+    dt = float(prep.spec.state.time[2])
+    span = out_times if n > 1 else np.array([out_times[0], out_times[0] + (
+        min(dt, SINGLE_SPAN) if dt > 0.0 else SINGLE_SPAN)])
     try:
         res = _integrate(prep, span, start, notes, progress)
     except (InputError, AnalysisError) as exc:
