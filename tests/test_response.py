@@ -709,7 +709,7 @@ def test_book_step_on_a_law_contact():
     the law in its linear model, so contact does not shorten it: at its default force
     tolerance it takes fewer steps than Dormand-Prince at rtol 1e-10 (measured 130
     against 197; 19 834 when the law's force was held over the step), at (1e-3 N,
-    0.1 %) fewer than twice as many (measured 206; 2.4 million before)."""
+    0.1 %) fewer than twice as many (measured 259; 2.4 million before)."""
     _, sy = compiled(("drop", "BumpStop"), lambda: drop_spec("BumpStop"))
     rk = openimp.simulate(sy, 0.7, print_step=0.01, rtol=1e-10)
     book = openimp.simulate(sy, 0.7, print_step=0.01, method="book")
@@ -808,6 +808,7 @@ def test_forces_with_a_law_damper():
     (dict(t_final=1.0, print_step=0.0), r"print_step must be a positive"),
     (dict(t_final=1e100, print_step=1e-13), r"t_final 1e\+100 s at print_step 1e-13 s makes "
                                             r"1e\+113 outputs, more than 1e\+07"),
+    (dict(t_final=1.0, print_step=1e-310), r"print_step 1e-310 s makes inf outputs"),
     (dict(t_final=1.0, q0={"Z": 0.1}), r"q0: 'Z' is not a joint variable.*A\.theta"),
     (dict(t_final=1.0, q0={"A": "x"}), r"q0: the value of 'A' must be a number"),
     (dict(t_final=1.0, q0=[0.1, 0.2, 0.3]), r"q0 must hold 4 finite numbers"),
@@ -979,3 +980,30 @@ def test_point_mass_has_no_inertia_warnings():
     md = openimp.Model("bob")
     md.add_joint("revolute", "A", "BASE", "ROD", origin=(0, 0, 0))
     assert md.add_mass("ROD", 1.5, center=(0.3, -0.7, 0.1)) == []
+
+
+@pytest.mark.parametrize(("law", "x0", "direction", "want"), [
+    ("kink", 0.0, 1.0, 3.0),      # on the kink (a located switch), moving up: the upper side
+    ("kink", 0.0, -1.0, 0.0),     # moving down: the lower side
+    ("kink", 0.0, 0.0, 1.5),      # at rest on it: the central slope (the mean)
+    ("kink", -0.5e-3, 1.0, 0.0),  # the kink within h above: the side the point is on
+    ("kink", -1.5e-3, 1.0, 0.0),  # between h and 2h above: the inner central difference
+    ("kink", 0.7e-3, -1.0, 3.0),  # within h below
+    ("smooth", 0.1, 1.0, 1.15),   # x + 0.75 x^2: the Richardson slope, not a one-sided one
+])
+def test_law_slopes_on_one_side_of_a_kink(law, x0, direction, want):
+    """vibration._kinked_slopes (the book's law slopes): f = 3 max(x, 0) or x + 0.75 x^2
+    sampled at x0 + (-2h, -h, h, 2h), h = 1e-3, against the exact slope of the side
+    the point is on or moves to (1e-9; the smooth law's Richardson slope 1e-9)."""
+    from openimp.dynamics.vibration import _kinked_slopes
+
+    def f(x):
+        x = np.asarray(x, float)
+        return 3.0 * np.maximum(x, 0.0) if law == "kink" else x + 0.75 * x * x
+
+    h = 1e-3
+    P = f(x0 + h * np.array([-2.0, -1.0, 1.0, 2.0])).reshape(1, 4, 1)
+    central = (np.array([1.0, -8.0, 8.0, -1.0]) @ P) / (12.0 * h)
+    got = _kinked_slopes(P, f(np.array([x0])), h, np.array([direction]), central)
+    assert got.shape == (1, 1)
+    assert got[0, 0] == pytest.approx(want, abs=1e-9), got

@@ -111,10 +111,11 @@ def output_times(t_final: Any, print_step: Any, times: Any) -> np.ndarray:
         raise InputError("give the final time (t_final) or the output times (times=)")
     tf = _positive("t_final", t_final)
     dt = tf if print_step is None else _positive("print_step", print_step)
-    n = math.floor(tf / dt * (1 + 1e-12))
-    if n > MAX_OUTPUTS:
-        raise InputError(f"t_final {tf:g} s at print_step {dt:g} s makes {n:.3g} outputs, more "
-                         f"than {MAX_OUTPUTS:g}: give a larger print_step (or fewer times)")
+    ratio = tf / dt
+    if not ratio <= MAX_OUTPUTS:  # before floor(): an infinite ratio has no integer
+        raise InputError(f"t_final {tf:g} s at print_step {dt:g} s makes {ratio:.3g} outputs, "
+                         f"more than {MAX_OUTPUTS:g}: give a larger print_step (or fewer times)")
+    n = math.floor(ratio * (1 + 1e-12))
     t = np.arange(n + 1) * dt
     if tf - t[-1] > 1e-9 * dt:
         t = np.append(t, tf)
@@ -557,7 +558,7 @@ class _Run:
                 if st != stp.OK:
                     w.it[stp.WHY] = st
                     return stp.FAILED
-                if self.laws is not None:
+                if self.laws is not None and w.it[stp.LAW_OK]:
                     self._law_terms(t)
             st = stp.book_predict(w)
             if st == stp.OK:  # the middle, for the works
@@ -601,9 +602,11 @@ class _Run:
         acc = np.zeros(self.system.nq)
         acc[w.fcols[:w.it[stp.NF]]] = w.kv[0, :w.it[stp.NF]]
         acc[w.scols] = w.ms[0, :, 2]
+        rate = w.psid[cols]
+        go = np.where(rate != 0.0, rate, acc[cols])  # at rest, where it starts to move
         law_derivatives(self.system, w.q0, self.dyn.v.Gf[:, :nf], cols, qpl[:nf],
                         qdpl[:nf], Gl[:nf], w.psid, t, D[:nf, :nf], K[:nf, :nf], [],
-                        (w.psid[cols], acc[cols]))
+                        (go, acc[cols]))
 
     def _reject(self, st: int, h: float) -> int:
         w = self.w
@@ -857,7 +860,7 @@ class _Run:
 def _massless(system: System, S: Any) -> str:
     """What moves without kinetic energy at the assembled start S (the vibration
     analysis's diagnosis: the coordinates and the bodies), or "" when that finds M_FF
-    regular.  Imported here: a run that starts compiles no linearization."""
+    regular.  The linearization compiles only on this failure."""
     from openimp.dynamics.vibration import check_mass, linearize
 
     try:

@@ -56,10 +56,10 @@ REACHED, SWITCHED, STOPPED, CAPPED, FULL = 0, 1, 2, 3, 4
 #: float scalars of w.st
 (T, H, HNEXT, RTOL, ATOL, HMIN, HMAX, PTOL, CTOL, MTOL, FABS, FPCT, FSCALE, KE, PE,
  CLOSURE, QUALITY, SMALLEST, LARGEST, ERR, XMAX, QREF, TPREV, CLOS0, QUAL0, LSCALE,
- MSCALE, TFAIL, NST) = range(29)
+ MSCALE, TFAIL, HPROP, NST) = range(30)
 #: integer scalars of w.it
-(NF, NS, STEPS, REJECTS, EVALS, CLOSES, MAXIT, HAVE_K0, HAVE_LIN, WHY, FORCED,
- NIT) = range(12)
+(NF, NS, STEPS, REJECTS, EVALS, CLOSES, MAXIT, HAVE_K0, HAVE_LIN, WHY, FORCED, LAW_OK,
+ NIT) = range(13)
 
 # Dormand-Prince 5(4): nodes, stage weights (row 6 = the 5th-order weights, FSAL) and the
 # error weights b - b^ (b^ the 4th-order weights)
@@ -93,7 +93,8 @@ class Work(NamedTuple):
     loads without potential, dissipated).  ms (7, nS, 3): SGC position, rate,
     acceleration at each stage time (the last row also the step end).  kx,
     kv (7, nq), kw (7, 3): stage derivatives; ke_pe (7, 2): stage energies.
-    xs, vs (nq,), ws (3,): a stage's state; xe, ve (nq,): the step's error.
+    xs, vs (nq,), ws (3,): a stage's state; xe, ve (nq,): the step's error (rk), the
+    predicted end (book, :func:`book_mid`).
     psid, aF, rhs (nq,); M, c, Q, Lc (mass, velocity products, forces,
     Cholesky scratch); pw (3,) stage powers; ag (nq,) generalized
     accelerations; keep (nq,) bool scratch.  Book step: lin (M, D, K, F, P2,
@@ -664,7 +665,7 @@ def book_linearize(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
     w.lin (rows and columns in the column order w.lcols of the FGCs and SGCs), the
     places of both in w.iF, w.iS and M_FF^-1 in w.Minv.  With w.lopts[4] set the
     closed postures are kept in w.lin for the derivatives of the load laws,
-    which the caller adds to D and K (laws are Python).  Returns OK,
+    which the caller adds to D and K (laws are Python) when w.it[LAW_OK].  Returns OK,
     LOST_COORDINATES or SINGULAR_MASS."""
     z = dyn_data_views(ZP)
     nq = S.q.shape[0]
@@ -699,11 +700,19 @@ def book_linearize(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
     o[3] = moving  # o[4]: keep the closed postures for the laws' derivatives (the caller's)
     nf, _, status = linearize_kernel(KP, DP, YP, ZP, S, gen, o, w.psid, w.rhs, w.lin,
                                      w.lwork)
+    # the closed postures (and their rates) are whole only when every closure converged
+    w.it[LAW_OK] = 1 if status == 0 else 0
     if status != 0:  # a closure of the motion terms failed: the book's K at rest
         for a in range(nq):
             S.q[a] = w.q0[a]
         o[3] = 0.0
         nf, _, _ = linearize_kernel(KP, DP, YP, ZP, S, gen, o, w.psid, w.rhs, w.lin, w.lwork)
+    if o[3] == 0.0:  # at rest the joint rates at the closed postures are zero (not written)
+        qdpl = w.lin[8]
+        for i in range(qdpl.shape[0]):
+            for p in range(qdpl.shape[1]):
+                for a in range(qdpl.shape[2]):
+                    qdpl[i, p, a] = 0.0
     for a in range(nq):
         S.sgc[a] = w.keep[a]
     w.it[EVALS] += 1 + 2 * nf
@@ -885,6 +894,8 @@ def book_finish(S: tuple, w: Work) -> int:
         w.st[HNEXT] = 2.0 * h
     else:
         w.st[HNEXT] = h
+    if err <= tol:  # a step cut to land on an output: back to the proposal before the cut
+        w.st[HNEXT] = max(w.st[HNEXT], w.st[HPROP])
     # works over the step by Simpson's rule: the powers at its ends and its middle
     # (w.wq, :func:`book_end`), the motion there the linear model's
     for k in range(3):
@@ -1131,14 +1142,21 @@ def _reached(tk: float, t1: float) -> bool:
 def land(w: Work, tout: np.ndarray, kout: np.ndarray) -> None:
     """The book's steps end on the output times: the time to the next output is cut
     into equal steps of at most 1.1 times the proposed one (no short remainder
-    step, whose length would set the next proposal).  Its outputs are then step
-    ends, never interpolated (an interpolant through the ends' accelerations
-    carries the stiff modes its step damps)."""
+    step, whose length would set the next proposal; never below the smallest step
+    unless the gap is; the cut proposal kept in w.st[HPROP] for :func:`book_finish`).
+    Its outputs are then step ends, never interpolated (an interpolant through the
+    ends' accelerations carries the stiff modes its step damps)."""
+    w.st[HPROP] = 0.0
     if kout[0] < tout.shape[0]:
         gap = tout[kout[0]] - w.st[T]
         h = w.st[H]
         if gap > 0.0 and h > 0.0:
-            w.st[H] = gap / max(1.0, math.ceil(gap / (1.1 * h)))
+            n = max(1.0, math.ceil(gap / (1.1 * h)))
+            if w.st[HMIN] > 0.0 and gap / n < w.st[HMIN]:  # never below the smallest step
+                n = max(1.0, math.floor(gap / w.st[HMIN]))
+            w.st[H] = gap / n
+            if w.st[H] < h:  # cut to land: the next step may go back to the proposal
+                w.st[HPROP] = h
 
 
 @njit(nrt=False)

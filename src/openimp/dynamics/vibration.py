@@ -298,11 +298,11 @@ def _kinked_slopes(P: np.ndarray, f0: np.ndarray, h: float, direction: np.ndarra
     """The slopes of laws with a kink in their stencil taken on one side.  P (nf, 4,
     nlaw): the values at offsets (-2h, -h, h, 2h) of each coordinate; f0 (nlaw,) at
     the point; direction (nf,): the sign of the motion; central (nf, nlaw): the
-    Richardson slopes, kept where the two sides agree (a smooth law) and where
-    neither side is straight (curvature, not a kink).  Where both sides are
-    straight but differ (the point on the kink: a located switch) the side the
-    motion goes to is taken; where one side is straight, that one (the kink lies
-    beyond the point on the other side)."""
+    Richardson slopes, kept for a smooth law.  Where the one-sided slopes jump far
+    more than either side bends (the point on the kink: a located switch) the side
+    the motion goes to is taken (the central slope at rest); where they differ and
+    only one side is straight, that one (the kink lies within h on the other);
+    with the kink between h and 2h the inner central difference."""
     fwd1 = (P[:, 2] - f0) / h
     fwd2 = (P[:, 3] - f0) / (2.0 * h)
     bwd1 = (f0 - P[:, 1]) / h
@@ -312,14 +312,20 @@ def _kinked_slopes(P: np.ndarray, f0: np.ndarray, h: float, direction: np.ndarra
     def same(a: np.ndarray, b: np.ndarray) -> np.ndarray:
         return np.abs(a - b) <= 1e-3 * np.maximum(np.abs(a), np.abs(b)) + tiny
 
-    kink = ~same(fwd1, bwd1)
+    differ = ~same(fwd1, bwd1)
     f_ok, b_ok = same(fwd1, fwd2), same(bwd1, bwd2)
-    go = np.broadcast_to(np.sign(direction)[:, None], kink.shape)
-    use_f = kink & f_ok & (~b_ok | (go > 0))
-    use_b = kink & b_ok & (~f_ok | (go < 0))
+    # on the kink (within 1e-3 h of it): the sides jump far more than either bends (a
+    # smooth law's one-sided slopes differ by its curvature, as much as each side bends;
+    # a point at d h from a kink bends by d / 2 of the jump on that side)
+    jump = np.abs(fwd1 - bwd1)
+    bend = np.abs(fwd2 - fwd1) + np.abs(bwd1 - bwd2)
+    at0 = differ & (jump > 1000.0 * bend + tiny)
+    go = np.broadcast_to(np.sign(direction)[:, None], differ.shape)
+    use_f = (at0 & (go > 0)) | (differ & ~at0 & f_ok & ~b_ok)
+    use_b = (at0 & (go < 0)) | (differ & ~at0 & b_ok & ~f_ok)
     # a kink between h and 2h: the inner points agree, the outer ones are off it
     inner = 0.5 * (fwd1 + bwd1)
-    out = np.where(~kink & ~same(central, inner), inner, central)
+    out = np.where(~differ & ~same(central, inner), inner, central)
     return np.where(use_f, fwd1, np.where(use_b, bwd1, out))
 
 
