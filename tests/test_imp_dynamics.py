@@ -37,6 +37,7 @@ from scipy.interpolate import CubicSpline
 
 from openimp.imp.deck import load
 from openimp.imp.interp import DeckError
+from test_imp_statics import line_of, run_deck, write  # the deck helpers, shared
 
 ROOT = Path(__file__).parent.parent
 EXAMPLES = ROOT / "examples"
@@ -46,27 +47,6 @@ G = 9.80665
 # =============================================================================
 # helpers
 # =============================================================================
-def run_deck(path: Path):
-    deck = load(path)
-    echo: list[str] = []
-    runs = deck.run(echo=echo.append)
-    return runs, echo
-
-
-def write(tmp_path: Path, text: str, name: str = "deck.imp") -> Path:
-    p = tmp_path / name
-    p.write_text(text)
-    return p
-
-
-def line_of(text: str, start: str) -> int:
-    """1-based number of the first line of ``text`` that starts with ``start``."""
-    for i, ln in enumerate(text.splitlines(), start=1):
-        if ln.startswith(start):
-            return i
-    raise AssertionError(start)
-
-
 def errors_of(path: Path) -> list[tuple[int, str]]:
     """(line, message) of every input error of a deck."""
     with pytest.raises(DeckError) as info:
