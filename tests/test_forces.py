@@ -162,6 +162,20 @@ class Spec:
         return openimp.compile(self.model)
 
 
+def spec_cache():
+    """A ``compiled(key, build) -> (spec, system)`` that compiles each spec once per test
+    session; one cache per test module (its keys are its own)."""
+    cache: dict = {}
+
+    def compiled(key, build):
+        if key not in cache:
+            spec = build()
+            cache[key] = (spec, spec.compile())
+        return cache[key]
+
+    return compiled
+
+
 class Ref:
     """Plain-numpy mechanics of a Spec along a trajectory (model units, global axes)."""
 

@@ -64,20 +64,13 @@ from response_models import (
     spring_mass,
     stiff_pendulum,
 )
-from test_forces import Ref
+from test_forces import Ref, spec_cache
 
 #: Newton-Euler balance: residual relative to the largest term of a body (round-off)
 NE_TOL = 1e-9
 
-_compiled: dict = {}
-
-
-def compiled(key, build):
-    """Compile a spec once per test session: (spec, system)."""
-    if key not in _compiled:
-        spec = build()
-        _compiled[key] = (spec, spec.compile())
-    return _compiled[key]
+#: each spec compiled once per test session: compiled(key, build) -> (spec, system)
+compiled = spec_cache()
 
 
 def hermite_roots(t, y, yd, ydd, sign: int):

@@ -67,6 +67,7 @@ from statics_models import (
     upright_pendulum,
     vehicle,
 )
+from test_forces import spec_cache
 
 #: Newton-Euler balance: residual relative to the largest force / moment term of a body
 NE_TOL = 1e-9
@@ -79,15 +80,8 @@ def rel(x, ref) -> float:
     return float(np.abs(x - ref).max() / max(np.abs(ref).max(), 1e-300))
 
 
-_compiled: dict = {}
-
-
-def compiled(key, build):
-    """Compile a spec once per test session (spec, system)."""
-    if key not in _compiled:
-        spec = build()
-        _compiled[key] = (spec, spec.compile())
-    return _compiled[key]
+#: each spec compiled once per test session: compiled(key, build) -> (spec, system)
+compiled = spec_cache()
 
 
 def check_balanced(eq, spec, bodies, plane=False, law_forces=()):
