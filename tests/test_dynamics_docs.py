@@ -33,6 +33,8 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq, minimize_scalar
 
+from test_python_docs import blocks, squash  # the doc pages' helpers
+
 ROOT = Path(__file__).parent.parent
 DOC = ROOT / "docs" / "dynamics.md"
 DEG = math.pi / 180.0
@@ -41,14 +43,6 @@ DEG = math.pi / 180.0
 A_, B_, C_, D_, G = 1.0, 3.0, 2.5, 3.2, 9.81
 MASS = (A_, B_, C_)
 INERTIA = tuple(mm * ll * ll / 12.0 for mm, ll in zip(MASS, (A_, B_, C_), strict=True))
-
-
-def blocks(text: str) -> list[str]:
-    return re.findall(r"^```python\n(.*?)^```$", text, flags=re.S | re.M)
-
-
-def squash(text: str) -> str:
-    return " ".join(text.split())
 
 
 def linkage(th: float) -> dict:

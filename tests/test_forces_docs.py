@@ -12,16 +12,13 @@ virtual work with the output load, and its indeterminate forces.
 
 from __future__ import annotations
 
-import re
 from pathlib import Path
 
 import numpy as np
 
+from test_python_docs import blocks  # the doc pages' helpers
+
 DOC = Path(__file__).parent.parent / "docs" / "forces.md"
-
-
-def blocks(text: str) -> list[str]:
-    return re.findall(r"^```python\n(.*?)^```$", text, flags=re.S | re.M)
 
 
 def test_forces_docs_run_and_are_right(tmp_path, monkeypatch, capsys) -> None:

@@ -28,6 +28,11 @@ def blocks(text: str) -> list[str]:
     return re.findall(r"^```python\n(.*?)^```$", text, flags=re.S | re.M)
 
 
+def squash(text: str) -> str:
+    """``text`` with every run of white space one blank (for phrases across lines)."""
+    return " ".join(text.split())
+
+
 def coupler_point(theta: np.ndarray) -> np.ndarray:
     """(steps, 3) path of P: crank 1, coupler 3, rocker 2.5, frame 3.2 (the page's)."""
     D = np.array([3.2, 0.0])

@@ -28,17 +28,11 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import brentq
 
+from test_python_docs import blocks, squash  # the doc pages' helpers
+
 ROOT = Path(__file__).parent.parent
 DOC = ROOT / "docs" / "statics.md"
 DEG = math.pi / 180.0
-
-
-def blocks(text: str) -> list[str]:
-    return re.findall(r"^```python\n(.*?)^```$", text, flags=re.S | re.M)
-
-
-def squash(text: str) -> str:
-    return " ".join(text.split())
 
 
 def test_statics_docs_run_and_are_right(monkeypatch, capsys) -> None:

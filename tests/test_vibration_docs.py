@@ -13,18 +13,14 @@ step response against the static deflection 1 / k.
 
 from __future__ import annotations
 
-import re
 from pathlib import Path
 
 import numpy as np
 
 from openimp.dynamics.eom import equations
+from test_python_docs import blocks  # the doc pages' helpers
 
 DOC = Path(__file__).parent.parent / "docs" / "vibration.md"
-
-
-def blocks(text: str) -> list[str]:
-    return re.findall(r"^```python\n(.*?)^```$", text, flags=re.S | re.M)
 
 
 def test_vibration_docs_run_and_are_right(tmp_path, monkeypatch, capsys) -> None:
