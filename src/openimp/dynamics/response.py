@@ -39,7 +39,7 @@ import numpy as np
 
 from openimp.dynamics import stepping as stp
 from openimp.dynamics.laws import LoadState, law_values_at
-from openimp.dynamics.vibration import law_derivatives
+from openimp.dynamics.vibration import check_mass, law_derivatives, linearize
 from openimp.errors import AnalysisError, InputError
 from openimp.kinematics.posture import newton
 from openimp.kinematics.track import tracker
@@ -861,8 +861,6 @@ def _massless(system: System, S: Any) -> str:
     """What moves without kinetic energy at the assembled start S (the vibration
     analysis's diagnosis: the coordinates and the bodies), or "" when that finds M_FF
     regular.  The linearization compiles only on this failure."""
-    from openimp.dynamics.vibration import check_mass, linearize
-
     try:
         check_mass(linearize(system, S, motion_terms=False))
     except (InputError, AnalysisError) as exc:

@@ -58,8 +58,8 @@ REACHED, SWITCHED, STOPPED, CAPPED, FULL = 0, 1, 2, 3, 4
  CLOSURE, QUALITY, SMALLEST, LARGEST, ERR, XMAX, QREF, TPREV, CLOS0, QUAL0, LSCALE,
  MSCALE, TFAIL, HPROP, NST) = range(30)
 #: integer scalars of w.it
-(NF, NS, STEPS, REJECTS, EVALS, CLOSES, MAXIT, HAVE_K0, HAVE_LIN, WHY, FORCED, LAW_OK,
- NIT) = range(13)
+(NF, NS, STEPS, REJECTS, EVALS, CLOSES, MAXIT, HAVE_LIN, WHY, FORCED, LAW_OK,
+ NIT) = range(12)
 
 # Dormand-Prince 5(4): nodes, stage weights (row 6 = the 5th-order weights, FSAL) and the
 # error weights b - b^ (b^ the 4th-order weights)
@@ -427,7 +427,6 @@ def start_state(S: tuple, w: Work) -> None:
     w.ke_pe[0, 1] = w.st[PE]
     w.st[CLOS0] = w.st[CLOSURE]
     w.st[QUAL0] = w.st[QUALITY]
-    w.it[HAVE_K0] = 1
     w.it[HAVE_LIN] = 0
 
 
