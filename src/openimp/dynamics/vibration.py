@@ -1092,7 +1092,7 @@ def mode_motion(modes: Modes, mode: int = 0, amplitude: float = 0.1, steps: int 
     for i in lin.sgc:
         name = lin.coords[i]
         drivers[name] = np.full(theta.size, lin.q[system.var_index(name)])
-    tr = sweep(system, drivers, start=lin.q)
+    tr = sweep(system, drivers, q=lin.q)
     w = modes.damped[mode] if modes.kind[mode] == "oscillatory" else 2 * math.pi
     tr.time = theta[:tr.nsteps] / w
     return tr

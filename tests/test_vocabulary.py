@@ -1,0 +1,112 @@
+"""One vocabulary of the Python API (docs/python.md, "One vocabulary").
+
+Every analysis reads ``q`` (a posture in model units: the nq joint variables or
+a mapping of joint variables to values), ``state=`` (a State, internal units)
+and ``specified=`` the same way; a renamed argument keeps working for one
+release with a DeprecationWarning naming the new name, and gives the same
+result.  References are written here in plain numpy: a double pendulum with
+joint springs under gravity, its potential V(a, b) and gradient in closed form.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+
+import numpy as np
+import pytest
+
+import openimp
+from openimp.errors import InputError
+from openimp.system import make_state
+
+G = 9.81
+#: link 1 on A (BASE -> L1) at the origin, link 2 on B (L1 -> L2) at (L1, 0); centres
+#: c1 on L1 and (L1, 0) + c2 on L2 at the modeling posture; springs kA, kB free at 0
+L1, M1, C1, M2, C2, KA, KB = 1.0, 2.0, (0.45, 0.08), 1.5, (0.6, -0.1), 60.0, 25.0
+
+
+def double_pendulum(units: str = "SI") -> openimp.Model:
+    m = openimp.Model("double pendulum")
+    m.add_joint("revolute", "A", "BASE", "L1", origin=(0.0, 0.0, 0.0), axis=(0, 0, 1))
+    m.add_joint("revolute", "B", "L1", "L2", origin=(L1, 0.0, 0.0), axis=(0, 0, 1))
+    assert m.add_mass("L1", M1, center=(*C1, 0.0), inertia=np.diag([0.01, 0.05, 0.06])) == []
+    assert m.add_mass("L2", M2, center=(L1 + C2[0], C2[1], 0.0),
+                      inertia=np.diag([0.01, 0.04, 0.05])) == []
+    m.set_gravity((0.0, -G, 0.0))
+    m.set_joint_spring("A", KA, 0.0)
+    m.set_joint_spring("B", KB, 0.0)
+    return m
+
+
+def rot(a: float) -> np.ndarray:
+    return np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])
+
+
+def gradient(a: float, b: float) -> np.ndarray:
+    """dV/d(a, b) of V = 1/2 kA a^2 + 1/2 kB b^2 + g (m1 y1 + m2 y2) (b relative)."""
+    c1, c2, r1 = np.array(C1), np.array(C2), np.array([L1, 0.0])
+    perp = np.array([[0.0, -1.0], [1.0, 0.0]])
+    d1_da = perp @ rot(a) @ c1
+    d2_da = perp @ rot(a) @ (r1 + rot(b) @ c2)
+    d2_db = rot(a) @ perp @ rot(b) @ c2
+    return np.array([KA * a + G * (M1 * d1_da[1] + M2 * d2_da[1]),
+                     KB * b + G * M2 * d2_db[1]])
+
+
+@pytest.fixture(scope="module")
+def dp() -> openimp.System:
+    return openimp.compile(double_pendulum())
+
+
+def test_gradient_reference_by_finite_differences():
+    """The closed-form gradient against central differences of V itself."""
+    def V(a, b):
+        y1 = (rot(a) @ np.array(C1))[1]
+        y2 = (rot(a) @ (np.array([L1, 0.0]) + rot(b) @ np.array(C2)))[1]
+        return 0.5 * KA * a * a + 0.5 * KB * b * b + G * (M1 * y1 + M2 * y2)
+    h = 1e-6
+    for a, b in [(0.3, -0.2), (1.1, 0.7)]:
+        fd = [(V(a + h, b) - V(a - h, b)) / (2 * h), (V(a, b + h) - V(a, b - h)) / (2 * h)]
+        assert np.allclose(gradient(a, b), fd, rtol=0, atol=1e-7)
+
+
+# ----------------------------------------------------------------------------- sweep
+def test_sweep_q_array_and_mapping(dp):
+    """q as the nq values and as a mapping (the others at the modeling posture) start
+    at the posture given; specified= holds B there while A is driven."""
+    drive = {"A": np.linspace(0.0, 0.5, 6)}
+    a = openimp.sweep(dp, drive, q=[0.0, 0.3], specified=["B"])
+    b = openimp.sweep(dp, drive, q={"B": 0.3}, specified="B")
+    assert np.array_equal(a.q, b.q)
+    assert np.allclose(a.q[:, 1], 0.3, rtol=0, atol=1e-14)
+    assert np.allclose(a.q[:, 0], drive["A"], rtol=0, atol=1e-14)
+    with pytest.raises(InputError, match="B"):  # mobility 2, one driver
+        openimp.sweep(dp, drive, q={"B": 0.3})
+
+
+def test_sweep_start_is_deprecated_for_q(dp):
+    drive = {"A": np.linspace(0.0, 0.5, 4)}
+    new = openimp.sweep(dp, drive, q=[0.0, 0.3], specified="B")
+    with pytest.warns(DeprecationWarning, match="use q") as rec:
+        old = openimp.sweep(dp, drive, start=[0.0, 0.3], specified="B")
+    assert rec[0].filename == __file__  # the user's line, not openimp's
+    assert np.array_equal(new.q, old.q)
+    with pytest.raises(InputError, match="q only"):
+        openimp.sweep(dp, drive, q=[0.0, 0.3], start=[0.0, 0.3])
+
+
+def test_sweep_state_and_bad_q(dp):
+    drive = {"A": np.linspace(0.0, 0.5, 4)}
+    S = make_state(dp, dp.to_internal(np.array([0.0, 0.3])))
+    a = openimp.sweep(dp, drive, state=S, specified="B")
+    b = openimp.sweep(dp, drive, q=[0.0, 0.3], specified="B")
+    assert np.array_equal(a.q, b.q)
+    with pytest.raises(InputError, match="state="):
+        openimp.sweep(dp, drive, q=[0.0, 0.3], state=S)
+    for bad, words in [({"B": "x"}, "q\\['B'\\]"), ({"Z": 1.0}, "Z"), ([0.0], "q must hold"),
+                       ({"B": math.inf}, "finite")]:
+        with pytest.raises(InputError, match=words):
+            openimp.sweep(dp, drive, q=bad, specified="B")
+    with pytest.raises(InputError, match="unknown option"):
+        openimp.sweep(dp, drive, strat=[0.0, 0.3])
