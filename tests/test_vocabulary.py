@@ -11,7 +11,6 @@ joint springs under gravity, its potential V(a, b) and gradient in closed form.
 from __future__ import annotations
 
 import math
-import warnings
 
 import numpy as np
 import pytest

@@ -70,7 +70,7 @@ def start_state(system: System, q: Any, state: Any, where: str, t: float = 0.0) 
     if state is None:
         return make_state(system, posture_input(system, q), t)
     if q is not None:
-        raise InputError(f"{where}: give q (model units) or state (a State), not both")
+        raise InputError(f"{where}: give q (model units) or state= (a State), not both")
     if not isinstance(state, State):
         raise InputError(f"{where}: state must be a State (internal units), got "
                          f"{type(state).__name__}; give a posture in model units as q")
