@@ -739,7 +739,7 @@ def test_forces_on_the_released_fourbar(fb):
     spec, sy, _ = fb
     res = openimp.simulate(sy, 2.0, print_step=0.05, rtol=1e-10)
     assert res.complete, res.message
-    F = openimp.forces(res)
+    F = openimp.forces_of(res)
     scale = sum(m for m, _, _ in spec.mass.values()) * G * FBR["l2"]
     free = {n for row in res.fgc for n in row}
     assert free
@@ -760,7 +760,7 @@ def test_forces_on_the_driven_cart():
     res = openimp.simulate(sy, 3.0, print_step=0.1, q0={"A": 0.6}, motion={"S": motion},
                            rtol=1e-10)
     assert res.complete, res.message
-    F = openimp.forces(res)
+    F = openimp.forces_of(res)
     ia = sy.var_index("A")
     th, w, a = res.q[:, ia], res.qd[:, ia], res.qdd[:, ia]
     xdd = motion(res.time)[2]
@@ -778,7 +778,7 @@ def test_forces_with_a_law_damper():
         m, k, damper_law=openimp.OneWayDamper(OWD["ext"], OWD["comp"])))
     res = openimp.simulate(sy, 3.0, print_step=0.05, q0={"X": OWD["x0"]}, rtol=1e-10)
     assert res.complete, res.message
-    F = openimp.forces(res)
+    F = openimp.forces_of(res)
     assert np.abs(F.drive["X.s"]).max() <= 1e-10 * k * OWD["x0"]
 
 

@@ -109,3 +109,105 @@ def test_sweep_state_and_bad_q(dp):
             openimp.sweep(dp, drive, q=bad, specified="B")
     with pytest.raises(InputError, match="unknown option"):
         openimp.sweep(dp, drive, strat=[0.0, 0.3])
+
+
+# ----------------------------------------------------------------------------- equilibrium
+def _reference_equilibrium(start=(0.0, 0.0)) -> np.ndarray:
+    """The equilibrium of the double pendulum by Newton on the closed-form gradient with a
+    finite-difference Hessian (plain numpy)."""
+    x = np.array(start, float)
+    for _ in range(50):
+        h = 1e-6
+        H = np.column_stack([(gradient(*(x + h * e)) - gradient(*(x - h * e))) / (2 * h)
+                             for e in np.eye(2)])
+        dx = np.linalg.solve(H, -gradient(*x))
+        x += dx
+        if np.abs(dx).max() < 1e-14:
+            break
+    return x
+
+
+def test_equilibrium_q_forms_and_state(dp):
+    """q as an array, as a mapping, and state= all reach the closed-form equilibrium."""
+    ref = _reference_equilibrium()
+    assert np.abs(gradient(*ref)).max() < 1e-9
+    a = openimp.equilibrium(dp, [0.0, 0.0], forces=False)
+    b = openimp.equilibrium(dp, {"A": 0.0}, forces=False)
+    c = openimp.equilibrium(dp, state=make_state(dp), forces=False)
+    for e in (a, b, c):
+        assert e.converged and e.code == openimp.SearchStatus.BALANCED
+        np.testing.assert_allclose(e.q, ref, rtol=0, atol=1e-9)
+    assert np.array_equal(a.q, b.q) and np.array_equal(a.q, c.q)
+
+
+def test_equilibrium_specified_holds_at_q(dp):
+    """specified=B holds B at its value in q; A balances dV/dA = 0 at that B."""
+    e = openimp.equilibrium(dp, {"B": 0.4}, specified="B", forces=False)
+    assert e.value("B") == 0.4
+    assert abs(gradient(e.value("A"), 0.4)[0]) < 1e-8
+    # the holding moment balances the generalized load -dV/dB
+    assert e.holding["B.theta" if "B.theta" in e.holding else "B"] == pytest.approx(
+        gradient(e.value("A"), 0.4)[1], abs=1e-8)
+
+
+@pytest.mark.parametrize("old, new", [("rtol", "force_rtol"), ("max_steps", "max_iter")])
+def test_equilibrium_deprecated_option_names(dp, old, new):
+    """The old names work one more release, warn naming the new one, give the same."""
+    value = {"force_rtol": 1e-6, "max_iter": 3}[new]
+    got = openimp.equilibrium(dp, [0.0, 0.0], forces=False, **{new: value})
+    with pytest.warns(DeprecationWarning, match=f"use {new}") as rec:
+        old_got = openimp.equilibrium(dp, [0.0, 0.0], forces=False, **{old: value})
+    assert rec[0].filename == __file__
+    assert np.array_equal(got.q, old_got.q) and got.steps == old_got.steps
+    assert np.array_equal(got.force_tol, old_got.force_tol)
+    with pytest.raises(InputError, match=f"give {new} only"):
+        openimp.equilibrium(dp, [0.0, 0.0], **{new: value, old: value})
+    with pytest.warns(DeprecationWarning, match=f"use {new}"):
+        path = openimp.equilibria(dp, {"B": [0.1, 0.2]}, forces=False, **{old: value})
+    assert np.array_equal(path.q, openimp.equilibria(dp, {"B": [0.1, 0.2]}, forces=False,
+                                                     **{new: value}).q)
+
+
+def test_equilibrium_max_iter_caps_the_search(dp):
+    e = openimp.equilibrium(dp, [1.0, -1.0], max_iter=1, forces=False)
+    assert e.steps == 1 and e.code == openimp.SearchStatus.CAPPED and not e.converged
+    assert repr(e.code) == "<SearchStatus.CAPPED: 3>" and str(e.code) == e.status
+
+
+def test_equilibrium_state_as_q_is_deprecated(dp):
+    S = make_state(dp, dp.to_internal(np.array([0.2, 0.1])), 1.5)
+    new = openimp.equilibrium(dp, state=S, forces=False)
+    with pytest.warns(DeprecationWarning, match="state=") as rec:
+        old = openimp.equilibrium(dp, S, forces=False)
+    assert rec[0].filename == __file__
+    assert np.array_equal(new.q, old.q) and new.t == old.t == 1.5
+
+
+def test_equilibria_progress_is_done_total(dp):
+    seen = []
+    path = openimp.equilibria(dp, {"B": [0.1, 0.2, 0.3]}, forces=False,
+                              progress=lambda done, total: seen.append((done, total)))
+    assert seen == [(1.0, 3.0), (2.0, 3.0), (3.0, 3.0)] and len(path.steps) == 3
+    assert all(isinstance(x, float) for pair in seen for x in pair)
+
+
+# ----------------------------------------------------------------------------- forces
+def test_forces_of_and_deprecated_forces_of_trajectory(dp):
+    """forces(system, drivers) in one pass and forces_of(trajectory) agree; the
+    overloaded forces(trajectory) warns naming forces_of and gives the same; the
+    drive of B held at 0.3 balances gravity and the spring (the closed-form dV/dB)."""
+    drive = {"A": np.linspace(0.0, 0.5, 5)}
+    one = openimp.forces(dp, drive, q={"B": 0.3}, specified="B")
+    tr = openimp.sweep(dp, drive, q={"B": 0.3}, specified="B")
+    two = openimp.forces_of(tr)
+    with pytest.warns(DeprecationWarning, match="forces_of") as rec:
+        old = openimp.forces(tr)
+    assert rec[0].filename == __file__
+    for name in ("A.theta", "B.theta"):
+        np.testing.assert_allclose(one.drive[name], two.drive[name], rtol=0, atol=1e-10)
+        assert np.array_equal(old.drive[name], two.drive[name])
+    ref = np.array([gradient(a, 0.3) for a in drive["A"]])
+    np.testing.assert_allclose(two.drive["A.theta"], ref[:, 0], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(two.drive["B.theta"], ref[:, 1], rtol=0, atol=1e-9)
+    with pytest.raises(InputError, match="forces_of"):
+        openimp.forces_of(dp)
