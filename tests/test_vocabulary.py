@@ -211,3 +211,100 @@ def test_forces_of_and_deprecated_forces_of_trajectory(dp):
     np.testing.assert_allclose(two.drive["B.theta"], ref[:, 1], rtol=0, atol=1e-9)
     with pytest.raises(InputError, match="forces_of"):
         openimp.forces_of(dp)
+
+
+# ----------------------------------------------------------------------------- workspaces
+def test_workspaces_pool_never_shares_and_goes_with_the_system():
+    """take hands out a scratch no one holds; give returns it for reuse; the pool of a
+    system is dropped when the system is collected."""
+    import gc
+
+    from openimp.workspace import Workspaces
+
+    class Sys:  # any weak-referenceable object stands for a System
+        pass
+
+    ws, made = Workspaces(), []
+
+    def make(_s):
+        made.append(object())
+        return made[-1]
+
+    s = Sys()
+    assert len(ws) == 0
+    a = ws.take(s, "k", make)
+    b = ws.take(s, "k", make)  # a is held: a new one
+    assert a is not b and len(made) == 2
+    ws.give(s, "k", a)
+    assert ws.take(s, "k", make) is a and len(made) == 2
+    ws.give(s, "k", a)
+    ws.give(s, "k", a)  # given twice: kept once
+    assert ws.idle(s, "k") == 1
+    with ws.use(s, "k", make) as c:
+        assert c is a and ws.idle(s, "k") == 0
+    assert ws.idle(s, "k") == 1 and ws.idle(s, "other") == 0 and len(ws) == 1
+    del s
+    gc.collect()
+    assert len(ws) == 0
+
+
+def _serial(dp):
+    """The analyses of the re-entry and thread tests, one after the other."""
+    path = openimp.equilibria(dp, {"B": [0.1, 0.2, 0.3]}, forces=False)
+    single = openimp.equilibrium(dp, [0.8, -0.5], forces=False)
+    lin = openimp.linearize(dp, list(single.q))
+    tr = openimp.sweep(dp, {"A": np.linspace(0.0, 0.5, 5)}, q={"B": 0.3}, specified="B")
+    return path, single, lin, openimp.forces_of(tr)
+
+
+def test_analyses_reentered_from_a_progress_callback(dp):
+    """equilibrium, linearize and forces called from the progress callback of a path on
+    the same system (the path's scratch held meanwhile) give what they give alone, and
+    the path what it gives alone."""
+    from openimp.workspace import WORKSPACES
+
+    path0, single0, lin0, f0 = _serial(dp)
+    inner = []
+    held = []
+
+    def progress(done, total):
+        held.append(WORKSPACES.idle(dp, "equilibrium"))
+        _, single, lin, f = _serial(dp)
+        inner.append((single, lin, f))
+
+    path = openimp.equilibria(dp, {"B": [0.1, 0.2, 0.3]}, forces=False, progress=progress)
+    assert np.array_equal(path.q, path0.q)
+    assert [e.steps for e in path.steps] == [e.steps for e in path0.steps]
+    for single, lin, f in inner:
+        assert np.array_equal(single.q, single0.q)
+        assert np.array_equal(lin.K, lin0.K) and np.array_equal(lin.M, lin0.M)
+        assert np.array_equal(f.drive["B.theta"], f0.drive["B.theta"])
+    assert WORKSPACES.idle(dp, "equilibrium") >= 2  # the path's and the nested ones
+
+
+def test_two_threads_on_one_system_agree_with_serial(dp):
+    """Two threads running the same analyses on one system at once give exactly the
+    serial results (each call holds its own scratch)."""
+    import threading
+
+    ref = _serial(dp)
+    got: list = [None, None]
+    errors: list = []
+
+    def work(i):
+        try:
+            for _ in range(3):
+                got[i] = _serial(dp)
+        except Exception as exc:  # reported below, with the thread's failure
+            errors.append(exc)
+
+    threads = [threading.Thread(target=work, args=(i,)) for i in range(2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert not errors, errors
+    for path, single, lin, f in got:
+        assert np.array_equal(path.q, ref[0].q) and np.array_equal(single.q, ref[1].q)
+        assert np.array_equal(lin.K, ref[2].K) and np.array_equal(lin.D, ref[2].D)
+        assert np.array_equal(f.drive["A.theta"], ref[3].drive["A.theta"])

@@ -79,6 +79,11 @@ class Workspaces:
         with self._lock:
             return len(self._pools.get(id(system), {}).get(kind, ()))
 
+    def __len__(self) -> int:
+        """The number of systems with a pool (alive, or not yet finalized)."""
+        with self._lock:
+            return len(self._pools)
+
     def _drop(self, key: int) -> None:
         with self._lock:
             self._pools.pop(key, None)
