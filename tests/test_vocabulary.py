@@ -308,3 +308,16 @@ def test_two_threads_on_one_system_agree_with_serial(dp):
         assert np.array_equal(path.q, ref[0].q) and np.array_equal(single.q, ref[1].q)
         assert np.array_equal(lin.K, ref[2].K) and np.array_equal(lin.D, ref[2].D)
         assert np.array_equal(f.drive["A.theta"], ref[3].drive["A.theta"])
+
+
+def test_sweep_progress_is_done_total(dp):
+    """progress(done, total): steps solved and steps, floats, the last call (n, n)."""
+    seen = []
+    n = 600
+    openimp.sweep(dp, {"A": np.linspace(0.0, 1.0, n)}, specified="B",
+                  progress=lambda done, total: seen.append((done, total)))
+    assert seen and seen[-1] == (float(n), float(n))
+    assert all(isinstance(x, float) and t == n for d, t in seen for x in (d, t))
+    assert [d for d, _ in seen] == sorted(d for d, _ in seen)
+    with pytest.raises(InputError, match="progress"):
+        openimp.sweep(dp, {"A": [0.0]}, specified="B", progress=3)

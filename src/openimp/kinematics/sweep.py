@@ -562,6 +562,9 @@ def sweep(
         q = old["q"]
     S = make_state(system, start_state(system, q, state, "sweep").q)
     check_solver_options(tol, pivot_tol, maxit, maxhalve)
+    if progress is not None and not callable(progress):
+        raise InputError(f"sweep: progress must be a callable progress(done, total), got "
+                         f"{progress!r}")
     if branch not in ("smooth", "other"):
         raise InputError(f"branch must be 'smooth' or 'other', got {branch!r}")
     if at_limit not in ("stop", "switch"):
@@ -680,7 +683,7 @@ class _Run:
                            part)
 
     def solve(self, branch: str, at_limit: str,
-              progress: Callable[[int, int], None] | None) -> tuple[int, int]:
+              progress: Callable[[float, float], None] | None) -> tuple[int, int]:
         """Every step, with the user's choices; (steps solved, status).  With
         ``progress`` the steps are solved in chunks of :data:`CHUNK`, told after each;
         Ctrl-C between chunks ends the sweep with what was solved."""
@@ -700,7 +703,7 @@ class _Run:
                 if status == OK and k < n:  # a chunk solved: on with the next
                     k0, resume = k, True
                     if progress is not None:
-                        progress(k, n)
+                        progress(float(k), float(n))
                     continue
                 if k < n and at_limit == "switch" and self._switch(k):
                     k0, resume = k, False
@@ -709,7 +712,7 @@ class _Run:
                     self.limits.append((k, self.S.q.copy(), "the sweep stops there"))
                 k0 = k
                 if progress is not None:
-                    progress(k, n)
+                    progress(float(k), float(n))
                 return k, status
         except KeyboardInterrupt:
             self.interrupted = True

@@ -206,8 +206,8 @@ def solve(prep: Prepared, times: np.ndarray, start: np.ndarray | None,
             sl = slice(k, k + m)
             told = None
             if progress is not None and not lagged:
-                def told(done: int, total: int, k0: int = k) -> None:
-                    progress(k0 + done, n)
+                def told(done: float, total: float, k0: int = k) -> None:
+                    progress(k0 + int(done), n)
             try:
                 res = sweep(system, {c: motions.p[sl, j] for j, c in enumerate(names)},
                             rates={c: motions.v[sl, j] for j, c in enumerate(names)},
