@@ -101,6 +101,9 @@ def test_sweep_state_and_bad_q(dp):
     a = openimp.sweep(dp, drive, state=S, specified="B")
     b = openimp.sweep(dp, drive, q=[0.0, 0.3], specified="B")
     assert np.array_equal(a.q, b.q)
+    with pytest.warns(DeprecationWarning, match="state=") as rec:  # a State as q
+        c = openimp.sweep(dp, drive, q=S, specified="B")
+    assert rec[0].filename == __file__ and np.array_equal(c.q, b.q)
     with pytest.raises(InputError, match="state="):
         openimp.sweep(dp, drive, q=[0.0, 0.3], state=S)
     for bad, words in [({"B": "x"}, "q\\['B'\\]"), ({"Z": 1.0}, "Z"), ([0.0], "q must hold"),
@@ -321,3 +324,17 @@ def test_sweep_progress_is_done_total(dp):
     assert [d for d, _ in seen] == sorted(d for d, _ in seen)
     with pytest.raises(InputError, match="progress"):
         openimp.sweep(dp, {"A": [0.0]}, specified="B", progress=3)
+
+
+def test_status_enums_are_the_compiled_codes():
+    """SearchStatus and StepKind name the codes of the compiled search (statics)."""
+    from openimp.dynamics import statics as st
+
+    assert [int(c) for c in openimp.SearchStatus] == [st.BALANCED, st.NO_FREE, st.CAPPED,
+                                                       st.FAILED]
+    assert [int(k) for k in openimp.StepKind] == [st.NEWTON, st.DESCENT, st.MODIFIED,
+                                                  st.NEUTRAL_STEP, st.ESCAPE]
+    assert st.STEPPED not in set(openimp.SearchStatus)  # a step taken, not an end
+    assert [str(c) for c in openimp.SearchStatus] == ["balanced", "no free coordinate",
+                                                      "step cap", "failed"]
+    assert f"{openimp.SearchStatus.CAPPED!r}" == "<SearchStatus.CAPPED: 3>"

@@ -43,15 +43,6 @@ import numpy as np
 
 from openimp.dynamics.laws import law_values_at
 from openimp.dynamics.statics import (
-    BALANCED,
-    CAPPED,
-    DESCENT,
-    ESCAPE,
-    FAILED,
-    MODIFIED,
-    NEUTRAL_STEP,
-    NEWTON,
-    NO_FREE,
     O_CLOSE,
     O_FTOL,
     O_LIMIT,
@@ -185,13 +176,6 @@ def search_options(where: str, options: dict[str, Any], path: bool = False) -> S
 
 
 # ----------------------------------------------------------------------------- the search
-# the compiled codes, named (results.SearchStatus, results.StepKind)
-assert [SearchStatus.BALANCED, SearchStatus.NO_FREE, SearchStatus.CAPPED,
-        SearchStatus.FAILED] == [BALANCED, NO_FREE, CAPPED, FAILED]
-assert [StepKind.NEWTON, StepKind.DESCENT, StepKind.MODIFIED, StepKind.NEUTRAL,
-        StepKind.ESCAPE] == [NEWTON, DESCENT, MODIFIED, NEUTRAL_STEP, ESCAPE]
-
-
 def _sym_eig(K: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Eigenvalues (ascending) and vectors of the symmetric part of K."""
     if K.size == 0:
