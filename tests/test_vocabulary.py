@@ -338,3 +338,33 @@ def test_status_enums_are_the_compiled_codes():
     assert [str(c) for c in openimp.SearchStatus] == ["balanced", "no free coordinate",
                                                       "step cap", "failed"]
     assert f"{openimp.SearchStatus.CAPPED!r}" == "<SearchStatus.CAPPED: 3>"
+
+
+def test_inputs_rates_and_postures_in_model_units():
+    """kinematics.inputs, the one reading of q, rates and specified: model units in,
+    internal out, a mapping filling the named variables (for lengths the internal unit is
+    the model's length scale)."""
+    from openimp.kinematics.inputs import names_of, per_coordinate, posture_input
+
+    m = openimp.Model("slider")
+    m.add_joint("prism", "X", "BASE", "B", origin=(0, 0, 0), axis=(1, 0, 0))
+    m.add_joint("revolute", "R", "B", "C", origin=(0, 0, 0))
+    m.add_point("P", "C", (4.0, 0, 0))
+    sy = openimp.compile(m)
+    Ls = sy.length_scale
+    assert Ls != 1.0  # the test needs a length scale to see the units
+    x, r = sy.var_index("X"), sy.var_index("R")
+    q = posture_input(sy, {"X": 2.0})
+    assert q[x] == pytest.approx(2.0 / Ls, rel=1e-15) and q[r] == 0.0
+    np.testing.assert_allclose(posture_input(sy, [2.0, 0.5][::1 if x == 0 else -1]),
+                               np.where(np.arange(2) == x, 2.0 / Ls, 0.5), rtol=1e-15)
+    v = per_coordinate(sy, {"X": 3.0, "R": 0.25}, "rates")
+    assert v[x] == pytest.approx(3.0 / Ls, rel=1e-15) and v[r] == 0.25
+    np.testing.assert_array_equal(per_coordinate(sy, np.array([1.0, 1.0]), "rates"),
+                                  np.where(np.arange(2) == x, 1.0 / Ls, 1.0))
+    assert names_of("X", "t") == ["X"] and names_of(None, "t") == []
+    for bad in ({"X": "a"}, [1.0], {"X": np.nan}):
+        with pytest.raises(InputError, match="rates"):
+            per_coordinate(sy, bad, "rates")
+    with pytest.raises(InputError, match="specified"):
+        names_of(5, "t")
