@@ -104,8 +104,9 @@ def test_sweep_state_and_bad_q(dp):
     with pytest.warns(DeprecationWarning, match="state=") as rec:  # a State as q
         c = openimp.sweep(dp, drive, q=S, specified="B")
     assert rec[0].filename == __file__ and np.array_equal(c.q, b.q)
-    with pytest.raises(InputError, match="state="):
-        openimp.sweep(dp, drive, q=[0.0, 0.3], state=S)
+    for q in ([0.0, 0.3], S):
+        with pytest.raises(InputError, match="not both"):
+            openimp.sweep(dp, drive, q=q, state=S)
     for bad, words in [({"B": "x"}, "q\\['B'\\]"), ({"Z": 1.0}, "Z"), ([0.0], "q must hold"),
                        ({"B": math.inf}, "finite")]:
         with pytest.raises(InputError, match=words):

@@ -64,9 +64,9 @@ def start_state(system: System, q: Any, state: Any, where: str, t: float = 0.0) 
     State at time ``t``, nothing specified) or ``state`` (a
     :class:`~openimp.system.State`, internal units: a copy).  A State given as ``q``
     still works for one release, with a DeprecationWarning naming ``state=``."""
-    if isinstance(q, State):
+    if isinstance(q, State) and state is None:
         deprecated(where, "a State given as q", "state= (q is always a posture in model units)")
-        q, state = None, q if state is None else state
+        q, state = None, q
     if state is None:
         return make_state(system, posture_input(system, q), t)
     if q is not None:
