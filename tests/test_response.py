@@ -1,5 +1,5 @@
 """Time response (book ch 14, issue 16): openimp.simulate against references written here
-(and in tests/response_models.py) in plain numpy / scipy.
+(and in tests/helpers/response_models.py) in plain numpy / scipy.
 
 1. a simple pendulum at 150 and 90 deg against its exact period 4 sqrt(l/g) K(k): the
    zero crossings of the angle located on a quintic Hermite interpolant of the
@@ -45,9 +45,9 @@ from scipy.interpolate import BPoly
 from scipy.optimize import brentq
 
 import openimp
-from openimp.errors import InputError, OpenIMPError
-from openimp.motion import ConstantRate, Harmonic
-from response_models import (
+from helpers.mechanics import Ref
+from helpers.models import spec_cache
+from helpers.response_models import (
     FBR,
     SLP,
     STP,
@@ -64,7 +64,8 @@ from response_models import (
     spring_mass,
     stiff_pendulum,
 )
-from test_forces import Ref, spec_cache
+from openimp.errors import InputError, OpenIMPError
+from openimp.motion import ConstantRate, Harmonic
 
 #: Newton-Euler balance: residual relative to the largest term of a body (round-off)
 NE_TOL = 1e-9
