@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from helpers.docs import blocks
+from helpers.docs import blocks, squash
 
 DOC = Path(__file__).parent.parent / "docs" / "python.md"
 
