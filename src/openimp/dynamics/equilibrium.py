@@ -41,6 +41,7 @@ from typing import Any
 
 import numpy as np
 
+from openimp.dynamics.arguments import coordinate_names, floats
 from openimp.dynamics.laws import law_values_at
 from openimp.dynamics.statics import (
     BALANCED,
@@ -366,14 +367,12 @@ class _Search:
 
 # ----------------------------------------------------------------------------- entries
 def _start(system: System, q: Any, specified: Any, t: Any) -> State:
-    from openimp.dynamics.vibration import _floats, _names
-
     if not isinstance(system, System):
         raise InputError(f"equilibrium takes a compiled System, got {type(system).__name__}")
-    names = _names(specified)
+    names = coordinate_names(specified)
     tf = None
     if t is not None:
-        tf = float(_floats(t, "t"))
+        tf = float(floats(t, "t"))
         if not math.isfinite(tf):
             raise InputError(f"t must be a finite time, got {t!r}")
     if isinstance(q, State):
@@ -388,7 +387,7 @@ def _start(system: System, q: Any, specified: Any, t: Any) -> State:
         for key in names:
             S.sgc[system.var_index(key)] = True
         return S
-    qm = system.modeling_q if q is None else _floats(q, "q")
+    qm = system.modeling_q if q is None else floats(q, "q")
     if qm.shape != (system.nq,) or not np.all(np.isfinite(qm)):
         raise InputError(f"q must hold the {system.nq} joint variables as finite numbers, "
                          f"got shape {qm.shape}")

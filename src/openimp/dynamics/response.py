@@ -38,8 +38,9 @@ from typing import Any, TextIO
 import numpy as np
 
 from openimp.dynamics import stepping as stp
-from openimp.dynamics.laws import LoadState, law_values_at
-from openimp.dynamics.vibration import check_mass, law_derivatives, linearize
+from openimp.dynamics.laws import LoadState, law_derivatives, law_values_at
+from openimp.dynamics.linearize import linearize
+from openimp.dynamics.modes import check_mass
 from openimp.errors import AnalysisError, InputError
 from openimp.kinematics.posture import newton
 from openimp.kinematics.track import tracker

@@ -30,12 +30,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from openimp.dynamics.vibration import (
-    frequency_response,
-    linearize,
-    modes,
-    transfer_function,
-)
+from openimp.dynamics.frequency import frequency_response, transfer_function
+from openimp.dynamics.linearize import linearize
+from openimp.dynamics.modes import modes
 from openimp.errors import AnalysisError, InputError
 from openimp.imp.listing import step_text, tables_from_columns
 from openimp.imp.run.prepare import DynSpec, Item, Prepared, stepped
