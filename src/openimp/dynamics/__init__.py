@@ -11,7 +11,8 @@ linearisation, time response) call:
 * :mod:`~openimp.dynamics.inverse`: driving forces (11.14) and joint
   reactions by fictitious displacements (ch 17) along a motion;
 * :mod:`~openimp.dynamics.eom`: the equations of motion at one state,
-  M(psi) psi'' + c(psi, psi') = Q(psi, psi', t), with the FGC/SGC partition;
+  M(psi) psi'' + c(psi, psi') = Q(psi, psi', t), with the FGC/SGC partition
+  (:func:`equations`), and the one test of a singular mass matrix;
 * :mod:`~openimp.dynamics.laws`: load laws (callables) evaluated per step, and
   their derivatives for the linearized equations;
 * :mod:`~openimp.dynamics.linear`: the linearized equations about a set point
@@ -32,6 +33,7 @@ linearisation, time response) call:
 """
 
 from openimp.dynamics.analysis import forces
+from openimp.dynamics.eom import equations
 from openimp.dynamics.equilibrium import equilibria, equilibrium
 from openimp.dynamics.frequency import frequency_response, state_space, transfer_function
 from openimp.dynamics.laws import BumpStop, LiftOff, LoadState, OneWayDamper
@@ -40,6 +42,6 @@ from openimp.dynamics.modes import mode_motion, modes, modes_along
 from openimp.dynamics.response import simulate
 
 __all__ = ["BumpStop", "LiftOff", "LoadState", "OneWayDamper",
-           "equilibria", "equilibrium", "forces", "frequency_response",
+           "equations", "equilibria", "equilibrium", "forces", "frequency_response",
            "linearize", "mode_motion", "modes", "modes_along", "simulate",
            "state_space", "transfer_function"]

@@ -10,6 +10,7 @@ naming the argument and the value: :func:`positive`, :func:`floats`,
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -85,3 +86,29 @@ def per_step(system: System, values: Any, n: int, what: str) -> np.ndarray:
             raise InputError(f"{what}[{key!r}] must be a finite number or {n} of them")
         out[:, c] = arr / system.var_scale[c]
     return out
+
+
+def posture(system: System, q: Any, what: str = "q") -> np.ndarray:
+    """A posture in model units as its (nq,) joint variables: ``q`` None (the modeling
+    posture), an array of all nq joint variables, or a mapping of joint or
+    ``"joint.var"`` to values (the others at the modeling posture)."""
+    nq = system.nq
+    if q is None:
+        return system.modeling_q.copy()
+    if isinstance(q, Mapping):
+        out = system.modeling_q.copy()
+        for key, v in q.items():
+            c = system.var_index(key)
+            try:
+                x = float(v)
+            except (TypeError, ValueError):
+                raise InputError(f"{what}[{key!r}] must be a number, got {v!r}") from None
+            if not math.isfinite(x):
+                raise InputError(f"{what}[{key!r}] must be finite, got {x}")
+            out[c] = x
+        return out
+    qm = floats(q, what)
+    if qm.shape != (nq,) or not np.all(np.isfinite(qm)):
+        raise InputError(f"{what} must hold the {nq} joint variables as finite numbers, got "
+                         f"shape {qm.shape}")
+    return qm

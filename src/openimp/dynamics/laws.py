@@ -65,14 +65,12 @@ class LoadState:
         return self._tr.point(name)[self.step].copy()
 
 
-def _scale(system: Any, what: str, col: int) -> float:
-    """Factor from a law's model-unit value to internal units (see DYN_FIELDS)."""
-    Ls = system.length_scale
-    if what in ("spring", "damper", "force"):
-        return 1.0 / Ls
-    if what == "torque":
-        return 1.0 / Ls**2
-    return 1.0 / Ls if system.var_kinds[col] == "length" else 1.0 / Ls**2
+def _scale(system: Any, name: str, col: int) -> float:
+    """Factor from a law's model-unit value to internal units: 1 / the compiled table's
+    ``gscale`` of its joint variable ``col`` or ``escale`` of its element ``name``."""
+    if col >= 0:
+        return 1.0 / float(system.Y.gscale[col])
+    return 1.0 / float(system.Y.escale[system.elements.index(name)])
 
 
 def law_values(system: Any, trajectory: Any, times: np.ndarray) -> np.ndarray:
@@ -94,7 +92,7 @@ def law_values(system: Any, trajectory: Any, times: np.ndarray) -> np.ndarray:
             x, xd = _element_kinematics(system, trajectory, system.elements.index(name))
         else:
             x = xd = np.zeros(n)
-        f = _scale(system, what, col)
+        f = _scale(system, name, col)
         label = f"{what} {name!r}" if col < 0 else f"{what} of {system.var_names[col]}"
         for k in range(n):
             try:

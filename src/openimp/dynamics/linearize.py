@@ -122,8 +122,7 @@ def linearize(system: System, q: Any = None, rates: Any = None, accels: Any = No
                          messages)
     # internal -> model units: rows are generalized forces (x gs), columns per unit
     # of coordinate (/ vs): X_model = gs_i X_int / vs_j
-    Ls = system.length_scale
-    gs = np.where(vs[cols] == 1.0, Ls * Ls, Ls)
+    gs = system.Y.gscale[cols]
     sc = np.outer(gs, 1.0 / vs[cols])
     phi = G * vs[:, None] / vs[cols][None, :]
     lin = Linearization(

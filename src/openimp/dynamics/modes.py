@@ -20,15 +20,13 @@ from typing import Any
 import numpy as np
 
 from openimp.dynamics.arguments import coordinate_names, floats, per_step, positive
+from openimp.dynamics.eom import mass_check, mass_floor, singular_masses
 from openimp.dynamics.linear import H_MOTION, linearize_steps
 from openimp.dynamics.linearize import ASSEMBLED, CLOSE_TOL, kernel_buffers, linearize
 from openimp.errors import AnalysisError, InputError
 from openimp.kinematics import sweep
 from openimp.results import Linearization, ModeMap, Modes, Trajectory
 from openimp.system import System, make_data, make_dyn_data, make_state
-
-#: relative size of M_FF's smallest eigenvalue below which it is singular
-SINGULAR_M = 1e-14
 
 
 def free_blocks(lin: Linearization) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -39,51 +37,20 @@ def free_blocks(lin: Linearization) -> tuple[np.ndarray, np.ndarray, np.ndarray]
     else:
         F = lin.free
         MFF, DFF, KFF = (X[F][:, F] for X in (lin.M, lin.D, lin.K))
-    _check_mass(lin, MFF)
+    check_mass(lin, MFF)
     return MFF, DFF, KFF
 
 
-def check_mass(lin: Linearization) -> None:
+def check_mass(lin: Linearization, MFF: np.ndarray | None = None) -> None:
     """Raise InputError naming the free coordinates and the bodies that move without
-    kinetic energy when M_FF of ``lin`` is singular (the time response's diagnosis
-    of a singular mass matrix at its start)."""
-    free_blocks(lin)
-
-
-def _check_mass(lin: Linearization, MFF: np.ndarray) -> None:
-    """A Cholesky factor's smallest pivot bounds M_FF's smallest eigenvalue from above:
-    only a small one is looked at closer (eigh) and reported."""
-    if MFF.size == 0:
-        return
-    d = MFF.diagonal().tolist()
-    # the scale M_FF is measured against: its own diagonal and the model's mass (a 1 x 1
-    # M_FF of round-off size is as singular as a zero one); not the SGCs' block, which a
-    # heavy carriage would make dwarf a light part that does move
-    top = max(max(abs(x) for x in d), _mass_scale(lin.system), 1e-300)
-    if len(d) == 1:
-        if d[0] > SINGULAR_M * top:
-            return
-    else:
-        try:
-            L = np.linalg.cholesky(MFF)
-            if min(L.diagonal().tolist()) ** 2 > SINGULAR_M * top:
-                return
-        except np.linalg.LinAlgError:
-            pass
-    lam, vec = np.linalg.eigh(0.5 * (MFF + MFF.T))
-    bad = np.flatnonzero(lam <= SINGULAR_M * top)
-    if bad.size == 0:
-        return
-    free = [lin.coords[i] for i in lin.free]
-    v = vec[:, bad[0]]
-    moving = [free[i] for i in np.flatnonzero(np.abs(v) > 1e-6 * np.max(np.abs(v)))]
-    bodies = _moving_bodies(lin, v)
-    raise InputError(
-        "the mass matrix of the free coordinates is singular at this posture: moving "
-        + ", ".join(moving) + " together moves "
-        + (("bodies " + ", ".join(bodies)) if bodies else "no body") + " without "
-        "kinetic energy (no mass or inertia there); give those bodies mass and inertia "
-        "(Model.add_mass, DATA MASS / DATA INERTIA) or specify the coordinate")
+    kinetic energy when M_FF of ``lin`` (or ``MFF``, its block) is singular (the one
+    test and message, :func:`~openimp.dynamics.eom.mass_check`)."""
+    F = lin.free
+    if MFF is None:
+        MFF = lin.M[np.ix_(F, F)]
+    why = mass_check(lin.system, MFF, [lin.coords[i] for i in F], lin.bodies[:, F])
+    if why:
+        raise InputError(why)
 
 
 def _rate_scale(M: np.ndarray, D: np.ndarray, K: np.ndarray) -> np.ndarray:
@@ -130,20 +97,6 @@ def first_order(MFF: np.ndarray, DFF: np.ndarray, KFF: np.ndarray) -> np.ndarray
     Sm[..., :nf, :] = -np.linalg.solve(MFF, np.concatenate([DFF, KFF], axis=-1))
     Sm[..., nf:, :nf] = np.eye(nf)
     return Sm
-
-
-def _mass_scale(system: System) -> float:
-    """The model's mass times min(1, L^2), model units: what a M_FF entry of round-off
-    size is measured against (:func:`_check_mass`)."""
-    return float(system.Y.Jb[:, 3, 3].sum()) * min(1.0, system.length_scale ** 2)
-
-
-def _moving_bodies(lin: Linearization, vF: np.ndarray) -> list[str]:
-    """Bodies whose twist sum_j W_{b,j} vF_j is not zero when the FGCs move by vF."""
-    W = lin.bodies[:, lin.free]
-    tw = np.abs(np.einsum("bjk,j->bk", W, vF)).max(axis=1)
-    top = float(tw.max()) if tw.size else 0.0
-    return [lin.system.bodies[b] for b in np.flatnonzero(tw > 1e-9 * max(top, 1e-300))]
 
 
 def modes(lin: Linearization | System, **kwargs: Any) -> Modes:
@@ -291,7 +244,6 @@ def modes_along(system: System, q: Any, rates: Any = None, accels: Any = None, *
     loose = np.flatnonzero(RES > ASSEMBLED)
     NF[loose] = -2
     vs = system.var_scale
-    Ls = system.length_scale
     groups: dict[tuple[int, ...], list[int]] = {}
     for k in range(n):
         key = tuple(COLS[k, :NF[k]]) if NF[k] >= 0 else (int(NF[k]),)
@@ -303,7 +255,7 @@ def modes_along(system: System, q: Any, rates: Any = None, accels: Any = None, *
             continue
         cols = np.array(key, np.int64)
         nf = cols.size
-        sc = np.outer(np.where(vs[cols] == 1.0, Ls * Ls, Ls), 1.0 / vs[cols])
+        sc = np.outer(system.Y.gscale[cols], 1.0 / vs[cols])
         blocks.append((idx, MDK[idx, :, :nf, :nf] * sc, [system.var_names[c] for c in cols],
                        sgc[cols], 0))
     return _mode_map(system, qm, blocks)
@@ -330,12 +282,9 @@ def _mode_map(system: System, qm: np.ndarray, blocks: list) -> ModeMap:
         if X is None or nf == 0:
             continue
         XF = X[:, :, F][:, :, :, F]  # (steps, 3, nf, nf)
-        # a nearly singular M_FF: the test of modes (_check_mass), every step at once; its
-        # steps get a unit mass so that the others solve together
-        low = np.linalg.eigvalsh(0.5 * (XF[:, 0] + XF[:, 0].transpose(0, 2, 1)))[:, 0]
-        top = np.maximum(np.abs(np.diagonal(XF[:, 0], axis1=1, axis2=2)).max(axis=1),
-                         _mass_scale(system))
-        ok = low > SINGULAR_M * np.maximum(top, 1e-300)
+        # a singular M_FF: the test of every analysis, every step at once; its steps get
+        # a unit mass so that the others solve together
+        ok = ~singular_masses(XF[:, 0], mass_floor(system))
         for r in np.flatnonzero(~ok):
             messages.append(f"step {idx[r]}: the mass matrix of the free coordinates is "
                             "singular (a massless part can move alone); no modes")
