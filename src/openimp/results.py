@@ -1003,7 +1003,10 @@ class Modes:
     rad/s, ``damping`` ratio -Re lambda / |lambda|, ``damped`` Im lambda); a
     real eigenvalue is one non-oscillatory mode (``time_constant`` -1/lambda
     in s, negative when it grows; ``frequency`` and ``damping`` NaN).
-    ``kind``: "oscillatory", "overdamped" or "neutral" (lambda = 0);
+    ``kind``: "oscillatory", "overdamped" or "neutral" (lambda = 0: listed once
+    per freedom that has no restoring load, with ``frequency`` 0, ``damping``
+    NaN and ``time_constant`` infinite, though a freedom with no damping either
+    is a double zero of ``eigenvalues``);
     ``unstable``: Re lambda > 0.  ``shapes`` (nf, modes): the FGC amplitudes
     (complex, largest component 1); ``joint_shapes`` (nq, modes): every joint
     variable (phi' of the FGCs times the shape, model units).

@@ -112,3 +112,13 @@ def posture(system: System, q: Any, what: str = "q") -> np.ndarray:
         raise InputError(f"{what} must hold the {nq} joint variables as finite numbers, got "
                          f"shape {qm.shape}")
     return qm
+
+
+def named(system: System, values: Any) -> np.ndarray:
+    """(nq,) bool: the coordinates a mapping of :func:`per_coordinate` or :func:`per_step`
+    names (whatever their values; none for None)."""
+    out = np.zeros(system.nq, bool)
+    if values is not None and hasattr(values, "items"):
+        for key in values:
+            out[system.var_index(key)] = True
+    return out

@@ -12,12 +12,21 @@ System and reused (:func:`kernel_buffers`).
 
 from __future__ import annotations
 
+import warnings
 import weakref
 from typing import Any
 
 import numpy as np
 
-from openimp.dynamics.arguments import coordinate_names, floats, per_coordinate, positive
+from openimp.dynamics.arguments import (
+    coordinate_names,
+    floats,
+    named,
+    per_coordinate,
+    positive,
+    posture,
+)
+from openimp.dynamics.eom import equations
 from openimp.dynamics.laws import law_derivatives, law_values_at
 from openimp.dynamics.linear import H_MOTION, linearize_kernel
 from openimp.errors import AnalysisError, InputError
@@ -32,51 +41,78 @@ ASSEMBLED = 1e-6
 
 
 def linearize(system: System, q: Any = None, rates: Any = None, accels: Any = None, *,
-              specified: Any = (), t: float = 0.0, pivot_tol: float = 1e-10,
-              motion_terms: bool = True, close: bool = False) -> Linearization:
+              state: State | None = None, specified: Any = (), t: float = 0.0,
+              pivot_tol: float = 1e-10, motion_terms: bool = True,
+              close: bool = False) -> Linearization:
     """The linearized equations of motion of ``system`` about one set point (11.11).
 
-    ``q``: joint variables (nq,), model units, an assembled posture (default
-    the modeling posture), or a :class:`~openimp.system.State` (internal
-    units: its posture, time, specified coordinates ``sgc`` and the rates and
-    accelerations of its joint variables, which for the generalized
-    coordinates are theirs); ``specified``: the SGCs (joint names or
-    ``"joint.var"``), the other generalized coordinates are the FGCs the
-    elimination leaves; ``rates``, ``accels``: mappings coordinate -> rate,
-    acceleration at the set point (default at rest).  ``motion_terms``: add the
-    position derivatives of the velocity and acceleration terms that the
-    book's K (11.9) leaves out (default; they vanish at rest).  ``close``:
-    first close the loops of ``q`` to 1e-13 holding the generalized
-    coordinates (a posture solved to a looser tolerance); otherwise a posture
-    that misses closing by more than 1e-6 is refused.
+    ``q``: the posture in model units: all nq joint variables, or a mapping of
+    joint or ``"joint.var"`` to values (the others at the modeling posture);
+    default the modeling posture; an assembled posture.  ``rates``,
+    ``accels``: mappings coordinate -> rate, acceleration of the generalized
+    coordinates at the set point (model units; default at rest).
+    ``specified``: the SGCs (joint names or ``"joint.var"``), the other
+    generalized coordinates are the FGCs the elimination leaves.  ``t``: the
+    time (load laws read it).  ``state``: a :class:`~openimp.system.State`
+    instead of ``q``, ``rates``, ``t`` (internal units: its posture, time,
+    SGCs ``sgc`` and joint rates; its non-zero accelerations count as given).
+    A State passed as ``q`` works as ``state=`` with a DeprecationWarning.
 
-    Rates and accelerations are those of the generalized coordinates: one given
-    for a variable that the elimination makes dependent is an input error
-    (specify it, or give the rate of a generalized coordinate).
+    The accelerations of the set point: the SGCs' as given (default 0).  Those
+    of the FGCs, when none of them is given and the set point moves, are the
+    ones the equations of motion give there, M_FF psi''_F = Q_F - c_F -
+    M_FS psi''_S (10.15), so that K holds the position derivative of
+    M psi''* of the actual motion; at rest they are 0 unless given (K is then
+    the book's stiffness at rest, 11.9, the frequencies of the posture held
+    still, whether or not it is an equilibrium).
+
+    ``motion_terms``: add the position derivatives of the velocity and
+    acceleration terms that the book's K (11.9) leaves out (default; they
+    vanish at rest).  ``close``: first close the loops of ``q`` to 1e-13
+    holding the generalized coordinates (a posture solved to a looser
+    tolerance); otherwise a posture that misses closing by more than 1e-6 is
+    refused.  Rates and accelerations are those of the generalized
+    coordinates: one given for a variable that the elimination makes
+    dependent is an input error (specify it, or give the rate of a
+    generalized coordinate).
     """
     if not isinstance(system, System):
         raise InputError(f"linearize takes a compiled System, got {type(system).__name__}")
     nq = system.nq
     pivot_tol = positive(pivot_tol, "pivot_tol")
     specified = coordinate_names(specified)
-    given = not isinstance(q, State)
     if isinstance(q, State):
+        warnings.warn("linearize: a State as q is deprecated (q is a posture in model "
+                      "units); pass it as state=", DeprecationWarning, stacklevel=2)
+        if state is not None:
+            raise InputError("linearize: give the State once, as state=")
+        q, state = None, q
+    given = state is None
+    if state is not None:
+        if q is not None or rates is not None:
+            raise InputError("linearize: give the set point as q (and rates) or as state=, "
+                             "not both")
+        if state.q.shape != (nq,):
+            raise InputError(f"linearize: the State holds {state.q.shape[0]} joint variables, "
+                             f"the system {nq}")
         vs = system.var_scale
-        st, q, t = q, system.to_model(q.q), q.time
-        specified = list(specified) + [system.var_names[c] for c in np.flatnonzero(st.sgc)]
-        rates = {system.var_names[c]: st.qd[c] * vs[c] for c in range(nq) if st.qd[c]}
-        accels = {system.var_names[c]: st.qdd[c] * vs[c] for c in range(nq) if st.qdd[c]}
-    qm = system.modeling_q if q is None else floats(q, "q")
-    if qm.shape != (nq,) or not np.all(np.isfinite(qm)):
-        raise InputError(f"q must hold the {nq} joint variables as finite numbers, got "
-                         f"shape {qm.shape}")
-    t = float(floats(t, "t"))
+        qm, t = system.to_model(state.q), state.time
+        specified = list(specified) + [system.var_names[c] for c in np.flatnonzero(state.sgc)]
+        rates = {system.var_names[c]: state.qd[c] * vs[c] for c in range(nq) if state.qd[c]}
+        if accels is None:
+            accels = {system.var_names[c]: state.qdd[c] * vs[c] for c in range(nq)
+                      if state.qdd[c]}
+    else:
+        qm = posture(system, q)
+        t = float(floats(t, "t"))
     S = make_state(system, system.to_internal(qm), t)
     for key in specified:
         S.sgc[system.var_index(key)] = True
     vs = system.var_scale
     psid = per_coordinate(system, rates, "rates")
     psidd = per_coordinate(system, accels, "accels")
+    if np.any(psid):
+        motion_accelerations(system, S, psid, psidd, named(system, accels), pivot_tol)
     data, dyn, out, work = _scratch(system)
     out[8][:] = 0.0  # the joint rates at the closed postures: written only when moving
     nlaw = len(system.laws)
@@ -132,6 +168,25 @@ def linearize(system: System, q: Any = None, rates: Any = None, accels: Any = No
         _element_directions(system, data, dyn, nf, cols), _body_screws(system, dyn, nf, cols),
         int(rank), messages)
     return lin
+
+
+def motion_accelerations(system: System, S: State, psid: np.ndarray, psidd: np.ndarray,
+                        given: np.ndarray, pivot_tol: float) -> None:
+    """The FGC accelerations of a moving set point from the equations of motion, into
+    ``psidd`` (nq,; internal units, in place): M_FF psi''_F = Q_F - c_F - M_FS psi''_S
+    (10.15) at S.q, S.sgc, S.t with the generalized rates ``psid`` (nq,) and the SGC
+    accelerations of ``psidd``.  Nothing is changed when an FGC acceleration is given
+    (``given`` (nq,) bool: named by the caller, or non-zero in ``psidd``) or M_FF is
+    singular (the analysis that solves with it says so)."""
+    St = S.copy()
+    St.qd[:] = psid
+    e = equations(system, state=St, pivot_tol=pivot_tol)
+    cols = np.array([system.var_index(n) for n in e.coords], np.int64)
+    F, Sg = cols[~e.specified], cols[e.specified]
+    if F.size == 0 or np.any(given[F]) or np.any(psidd[F]) or e.singular:
+        return
+    vs = system.var_scale
+    psidd[F] = e.free_accelerations(psidd[Sg] * vs[Sg]) / vs[F]
 
 
 def _check_coordinates(system: System, data: Any, cols: np.ndarray, rank: int,

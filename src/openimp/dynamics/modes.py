@@ -15,14 +15,21 @@ from __future__ import annotations
 
 import cmath
 import math
+import warnings
 from typing import Any
 
 import numpy as np
 
-from openimp.dynamics.arguments import coordinate_names, floats, per_step, positive
+from openimp.dynamics.arguments import coordinate_names, floats, named, per_step, positive
 from openimp.dynamics.eom import mass_check, mass_floor, singular_masses
 from openimp.dynamics.linear import H_MOTION, linearize_steps
-from openimp.dynamics.linearize import ASSEMBLED, CLOSE_TOL, kernel_buffers, linearize
+from openimp.dynamics.linearize import (
+    ASSEMBLED,
+    CLOSE_TOL,
+    kernel_buffers,
+    linearize,
+    motion_accelerations,
+)
 from openimp.errors import AnalysisError, InputError
 from openimp.kinematics import sweep
 from openimp.results import Linearization, ModeMap, Modes, Trajectory
@@ -99,22 +106,28 @@ def first_order(MFF: np.ndarray, DFF: np.ndarray, KFF: np.ndarray) -> np.ndarray
     return Sm
 
 
-def modes(lin: Linearization | System, **kwargs: Any) -> Modes:
+def modes(lin: Linearization, **kwargs: Any) -> Modes:
     """Natural frequencies, damping ratios, time constants and mode shapes (13.9-13.13).
 
-    ``lin``: a :class:`Linearization`, or a System with the arguments of
-    :func:`linearize`.  Every SGC is locked (x_S = 0); the eigenvalues are
-    those of the first-order system y' = S y, y = (v_F, x_F) (14.11), a general
-    (not symmetric) matrix, so gyroscopic and follower-load terms are kept.
-    Raises :class:`InputError` when M_FF is singular and
-    :class:`AnalysisError` when there are no FGCs.
+    ``lin``: the :class:`Linearization` of :func:`linearize` (of a System:
+    ``modes(openimp.linearize(system, q, ...))``; a System with the arguments
+    of :func:`linearize` still works, with a DeprecationWarning).  Every SGC
+    is locked (x_S = 0); the eigenvalues are those of the first-order system
+    y' = S y, y = (v_F, x_F) (14.11), a general (not symmetric) matrix, so
+    gyroscopic and follower-load terms are kept.  Each neutral freedom is one
+    mode, of frequency 0.  Raises :class:`InputError` when M_FF is singular
+    and :class:`AnalysisError` when there are no FGCs.
     """
     if isinstance(lin, System):
+        warnings.warn("modes(system, ...) is deprecated: linearize first, "
+                      "modes(openimp.linearize(system, ...))", DeprecationWarning, stacklevel=2)
         lin = linearize(lin, **kwargs)
     elif not isinstance(lin, Linearization):
-        raise InputError(f"modes takes a Linearization or a System, got {type(lin).__name__}")
+        raise InputError(f"modes takes a Linearization (of openimp.linearize), got "
+                         f"{type(lin).__name__}")
     elif kwargs:
-        raise InputError("modes: arguments besides a Linearization are for a System")
+        raise InputError("modes takes one Linearization and no other argument; the set "
+                         "point's arguments are linearize's")
     free = lin.free
     nf = free.size
     if nf == 0:
@@ -130,10 +143,10 @@ def modes(lin: Linearization | System, **kwargs: Any) -> Modes:
     tol = 1e-9 * max(max(abs(z) for z in lams), rate, 1e-300)
     zero = 1e-6 * rate
     # one entry per mode: a real eigenvalue, or the upper member of a pair; slowest first
-    # (a neutral pair of round-off size counts twice, as the double zero it is)
     keep = sorted((k for k, z in enumerate(lams)
                    if abs(z.imag) <= tol or z.imag > 0 or abs(z) <= zero),
                   key=lambda k: abs(lams[k]))
+    keep = _one_per_freedom(keep, lams, eta[nf:], tol, zero)
     m = len(keep)
     mlam = lam[keep]
     shapes = eta[nf:, keep]
@@ -148,6 +161,7 @@ def modes(lin: Linearization | System, **kwargs: Any) -> Modes:
         if abs(z) <= zero:
             shapes[:, r] = shapes[:, r].real
             tau[r] = math.inf
+            freq[r] = 0.0
             kinds.append("neutral")
         elif abs(z.imag) > tol:
             freq[r] = abs(z)
@@ -158,12 +172,38 @@ def modes(lin: Linearization | System, **kwargs: Any) -> Modes:
             shapes[:, r] = shapes[:, r].real
             neutral = abs(z.real) <= tol
             tau[r] = math.inf if neutral else -1.0 / z.real
+            freq[r] = 0.0 if neutral else math.nan
             kinds.append("neutral" if neutral else "overdamped")
     unstable = (mlam.real > tol) & (np.abs(mlam) > zero)
     joint = lin.phi[:, free] @ shapes
     return Modes(lin, [lin.coords[i] for i in free], lam[np.argsort(np.abs(lam),
                  kind="stable")], mlam, np.array(freq), np.array(damp), np.array(damped),
                  np.array(tau), kinds, unstable, shapes, joint, Sm)
+
+
+def _one_per_freedom(keep: list[int], lams: list[complex], X: np.ndarray, tol: float,
+                     zero: float) -> list[int]:
+    """``keep`` with each neutral freedom once.  A freedom with no stiffness and no
+    damping (x'' = 0: a free rotor) is a double zero eigenvalue with one eigenvector
+    (a Jordan pair), a damped one a single zero: the neutral freedoms are as many as
+    the independent FGC parts ``X`` (nf, 2 nf) of the zero eigenvalues' eigenvectors
+    (the null space of K_FF), the first of them in order of |lambda| kept."""
+    zeros = [k for k in keep if abs(lams[k]) <= zero
+             or (abs(lams[k].imag) <= tol and abs(lams[k].real) <= tol)]
+    if len(zeros) < 2:
+        return keep
+    chosen: list[int] = []
+    basis = np.zeros((X.shape[0], 0), complex)
+    for k in zeros:
+        x = X[:, k] / max(float(np.linalg.norm(X[:, k])), 1e-300)
+        # independent of those chosen: a part of it outside their span (a nearly
+        # defective pair's vectors differ by ~sqrt(round-off), far below 1e-6)
+        rest = x - basis @ (basis.conj().T @ x)
+        if np.linalg.norm(rest) > 1e-6:
+            chosen.append(k)
+            basis = np.column_stack([basis, rest / np.linalg.norm(rest)])
+    drop = set(zeros) - set(chosen)
+    return [k for k in keep if k not in drop]
 
 
 def modes_along(system: System, q: Any, rates: Any = None, accels: Any = None, *,
@@ -174,9 +214,10 @@ def modes_along(system: System, q: Any, rates: Any = None, accels: Any = None, *
     (its postures, its specified coordinates unless ``specified`` is given, its
     rates and times); ``rates``, ``accels``: mappings coordinate -> value or
     array (steps,); ``t``: time or times.  The same result as :func:`modes` of
-    :func:`linearize` at every step, linearized in one compiled pass and the
-    eigenvalues found together (load laws, being Python, take the step-by-step
-    route).
+    :func:`linearize` at every step (at a moving step the FGC accelerations
+    of the equations of motion, when none is given), linearized in one
+    compiled pass and the eigenvalues found together (load laws, being
+    Python, take the step-by-step route).
     """
     if not isinstance(system, System):
         raise InputError(f"modes_along takes a compiled System, got {type(system).__name__}")
@@ -207,6 +248,7 @@ def modes_along(system: System, q: Any, rates: Any = None, accels: Any = None, *
         return _mode_map(system, qm, [])
     psid = per_step(system, rates, n, "rates")
     psidd = per_step(system, accels, n, "accels")
+    given = named(system, accels)
     sgc = np.zeros(nq, bool)
     for key in specified:
         sgc[system.var_index(key)] = True
@@ -216,7 +258,7 @@ def modes_along(system: System, q: Any, rates: Any = None, accels: Any = None, *
             r = {system.var_names[c]: psid[k, c] * system.var_scale[c] for c in range(nq)
                  if psid[k, c]}
             a = {system.var_names[c]: psidd[k, c] * system.var_scale[c] for c in range(nq)
-                 if psidd[k, c]}
+                 if psidd[k, c] or given[c]}
             try:
                 lin = linearize(system, qm[k], r, a, specified=specified, t=float(T[k]),
                                 pivot_tol=pivot_tol)
@@ -229,6 +271,13 @@ def modes_along(system: System, q: Any, rates: Any = None, accels: Any = None, *
         mm = _mode_map(system, qm, blocks)
         mm.messages[:0] = why
         return mm
+    for k in np.flatnonzero(psid.any(axis=1)):  # moving: the FGC accelerations, as linearize
+        Sk = make_state(system, system.to_internal(qm[k]), float(T[k]))
+        Sk.sgc[:] = sgc
+        try:
+            motion_accelerations(system, Sk, psid[k], psidd[k], given, pivot_tol)
+        except (InputError, AnalysisError):
+            pass  # not assembled or singular there: the compiled pass says so for the step
     S = make_state(system, system.to_internal(qm[0]), float(T[0]))
     S.sgc[:] = sgc
     data = make_data(system, nq)
