@@ -137,10 +137,12 @@ def eom(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | 
 #: the larger of its largest diagonal entry and the model's mass (:func:`mass_floor`).
 #: The one test of every analysis that solves with M_FF (modes, transfer functions, the
 #: frequency map, equations().free_accelerations, the time response's diagnosis).  The
-#: time step's Cholesky solve also stops at a pivot below its ``mass_tol`` (IMP's ZERO
-#: (INERTIA), 1e-5 by default) times the same scale: a pivot bounds the smallest
-#: eigenvalue from above, so a step with a singular M_FF stops there, and simulate()
-#: then names what moves without mass by this test (:func:`massless`).
+#: time step's compiled Cholesky solve keeps its own guard, a pivot below ``mass_tol``
+#: (IMP's ZERO (INERTIA), 1e-5 by default) times the same scale: every pivot is at least
+#: the smallest eigenvalue, so that guard refuses only matrices whose smallest
+#: eigenvalue is below 1e-5 of the scale (it is IMP's looser accuracy limit, a user
+#: option), and a matrix singular by this test has a round-off pivot and stops there too;
+#: simulate() then names what moves without mass by this test (:func:`massless`).
 SINGULAR_MASS = 1e-14
 
 

@@ -175,15 +175,18 @@ def motion_accelerations(system: System, S: State, psid: np.ndarray, psidd: np.n
     """The FGC accelerations of a moving set point from the equations of motion, into
     ``psidd`` (nq,; internal units, in place): M_FF psi''_F = Q_F - c_F - M_FS psi''_S
     (10.15) at S.q, S.sgc, S.t with the generalized rates ``psid`` (nq,) and the SGC
-    accelerations of ``psidd``.  Nothing is changed when an FGC acceleration is given
-    (``given`` (nq,) bool: named by the caller, or non-zero in ``psidd``) or M_FF is
-    singular (the analysis that solves with it says so)."""
+    accelerations of ``psidd``.  Nothing is changed when the acceleration of a coordinate
+    that is not specified is given (``given`` (nq,) bool: named by the caller, or
+    non-zero in ``psidd``; of a dependent one it is refused later) or M_FF is singular
+    (the analysis that solves with it says so)."""
+    if np.any((given | (psidd != 0.0)) & ~S.sgc):
+        return
     St = S.copy()
     St.qd[:] = psid
     e = equations(system, state=St, pivot_tol=pivot_tol)
     cols = np.array([system.var_index(n) for n in e.coords], np.int64)
     F, Sg = cols[~e.specified], cols[e.specified]
-    if F.size == 0 or np.any(given[F]) or np.any(psidd[F]) or e.singular:
+    if F.size == 0 or e.singular:
         return
     vs = system.var_scale
     psidd[F] = e.free_accelerations(psidd[Sg] * vs[Sg]) / vs[F]

@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from openimp.dynamics.arguments import coordinate_names, floats, named, per_step, positive
-from openimp.dynamics.eom import mass_check, mass_floor, singular_masses
+from openimp.dynamics.eom import mass_floor, massless_message, null_motion, singular_masses
 from openimp.dynamics.linear import H_MOTION, linearize_steps
 from openimp.dynamics.linearize import (
     ASSEMBLED,
@@ -51,13 +51,14 @@ def free_blocks(lin: Linearization) -> tuple[np.ndarray, np.ndarray, np.ndarray]
 def check_mass(lin: Linearization, MFF: np.ndarray | None = None) -> None:
     """Raise InputError naming the free coordinates and the bodies that move without
     kinetic energy when M_FF of ``lin`` (or ``MFF``, its block) is singular (the one
-    test and message, :func:`~openimp.dynamics.eom.mass_check`)."""
+    test and message of :mod:`~openimp.dynamics.eom`, as its :func:`mass_check`)."""
     F = lin.free
     if MFF is None:
         MFF = lin.M[np.ix_(F, F)]
-    why = mass_check(lin.system, MFF, [lin.coords[i] for i in F], lin.bodies[:, F])
-    if why:
-        raise InputError(why)
+    v = null_motion(MFF, mass_floor(lin.system))
+    if v is not None:  # the names only on failure: modes() is called per posture
+        raise InputError(massless_message([lin.coords[i] for i in F], lin.bodies[:, F],
+                                          lin.system.bodies, v))
 
 
 def _rate_scale(M: np.ndarray, D: np.ndarray, K: np.ndarray) -> np.ndarray:
