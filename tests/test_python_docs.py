@@ -95,7 +95,7 @@ def test_one_vocabulary_table_lists_every_analysis() -> None:
     import openimp
 
     text = DOC.read_text()
-    section = text[text.index("## 7. One vocabulary"):]
+    section = text[text.index("## 8. One vocabulary"):]
     rows = [r for r in section.splitlines() if r.startswith("| `")]
     named = {n for r in rows for n in re.findall(r"`(\w+)", r.split("|")[1])}
     assert named == set(ANALYSES), named ^ set(ANALYSES)
@@ -105,3 +105,28 @@ def test_one_vocabulary_table_lists_every_analysis() -> None:
     for word in ("`force_rtol`", "`max_iter`", "`force_error`", "`state=`",
                  "`start` -> `q`", "`rtol` -> `force_rtol`", "`max_steps` -> `max_iter`"):
         assert word in section, word
+
+
+def test_python_docs_equations_and_vibration_section(tmp_path, monkeypatch) -> None:
+    """docs/python.md section 6: its snippet runs on the four-bar of the first block with
+    the masses and gravity of section 5 (not its simulation), and the numbers of the two
+    code paths agree: linearize's M (the compiled linearization) is equations()' M (the
+    equations-of-motion stage) to 1e-12, and F = Q - c (11.10) to 1e-12."""
+    text = DOC.read_text()
+    five = text.split("## 5. Let it move")[1].split("## 6.")[0]
+    six = text.split("## 6. The equations of motion")[1].split("## 7.")[0]
+
+    def snippet(section: str) -> str:
+        return "\n".join(line[4:] for line in section.splitlines()
+                         if line.startswith("    ") and not line[4:].startswith("res"))
+
+    monkeypatch.chdir(tmp_path)
+    ns: dict = {"__name__": "docs_python"}
+    exec(compile(blocks(text)[0], str(DOC), "exec"), ns)
+    exec(compile(snippet(five), str(DOC), "exec"), ns)
+    exec(compile(snippet(six), str(DOC), "exec"), ns)
+    e, lin, md = ns["e"], ns["lin"], ns["md"]
+    assert e.coords == lin.coords and not e.specified.any() and md.count >= 1
+    np.testing.assert_allclose(lin.M, e.M, rtol=1e-12, atol=1e-12 * np.abs(e.M).max())
+    np.testing.assert_allclose(lin.F, e.Q - e.c, rtol=1e-12, atol=1e-12 * np.abs(e.Q).max())
+    assert e.singular == ""

@@ -198,9 +198,8 @@ class _Scratch:
         self.z_law = self.dyn.view("law")
         self.E = self.data.view("E")
         f = np.zeros
-        Ls = system.length_scale
         vs = system.var_scale.astype(float)
-        gs = np.where(vs == 1.0, Ls * Ls, Ls)
+        gs = system.Y.gscale.copy()
         self.bufs = (f(nq), f((nq, nq)), f(nq, np.int64), f(nq), f((nq, nq)),
                      f(nq, np.int64), f((nq, nq, nq)), f((nb, nq, nq, 6)), f((nq, nq)),
                      f(nq), vs, gs, f(nq, np.int64), f(nq), f((nq, nq)), f((nq, nq + 1)),
@@ -843,9 +842,9 @@ def _tangent(system: System, eq: Equilibrium, cols: list[int]) -> np.ndarray | N
     if sp.all() or not sp.any():
         return None
     free = ~sp
-    vs = np.array([system.var_scale[system.var_index(n)] for n in eq.coords])
-    Ls = system.length_scale
-    gs = np.where(vs == 1.0, Ls * Ls, Ls)
+    at = [system.var_index(n) for n in eq.coords]
+    vs = system.var_scale[at]
+    gs = system.Y.gscale[at]
     Kint = eq.stiffness / np.outer(gs, 1.0 / vs)
     try:
         KFF = Kint[np.ix_(free, free)]

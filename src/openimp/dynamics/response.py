@@ -38,8 +38,8 @@ from typing import Any, TextIO
 import numpy as np
 
 from openimp.dynamics import stepping as stp
-from openimp.dynamics.laws import LoadState, law_values_at
-from openimp.dynamics.vibration import check_mass, law_derivatives, linearize
+from openimp.dynamics.eom import massless
+from openimp.dynamics.laws import LoadState, law_derivatives, law_values_at
 from openimp.errors import AnalysisError, InputError
 from openimp.kinematics.posture import newton
 from openimp.kinematics.track import tracker
@@ -399,8 +399,7 @@ class _Run:
         self.drive = drive
         self.w = stp.make_work(nq, drive.cols.size, len(system.bodies), len(system.laws))
         w = self.w
-        L = system.length_scale
-        w.gscale[:] = [L if k == "length" else L * L for k in system.var_kinds]
+        w.gscale[:] = system.Y.gscale
         w.scols[:] = drive.cols
         w.role[drive.cols] = 2
         st, it = w.st, w.it
@@ -467,7 +466,7 @@ class _Run:
         w.qdd0[:] = 0.0
         code = self._evaluate_start(S)
         if code != stp.OK:
-            why = _massless(system, S) if code == stp.SINGULAR_MASS else ""
+            why = massless(system, S) if code == stp.SINGULAR_MASS else ""
             raise AnalysisError(f"t = {t0:g} s: {why or self._why(code)}")
         w.st[stp.QREF] = w.st[stp.QUALITY]
 
@@ -855,17 +854,6 @@ class _Run:
     def fgc_names(self) -> tuple[str, ...]:
         w = self.w
         return tuple(self.system.var_names[int(c)] for c in w.fcols[:int(w.it[stp.NF])])
-
-
-def _massless(system: System, S: Any) -> str:
-    """What moves without kinetic energy at the assembled start S (the vibration
-    analysis's diagnosis: the coordinates and the bodies), or "" when that finds M_FF
-    regular.  The linearization compiles only on this failure."""
-    try:
-        check_mass(linearize(system, S, motion_terms=False))
-    except (InputError, AnalysisError) as exc:
-        return str(exc) if "singular" in str(exc) else ""
-    return ""
 
 
 def _crossed(a: np.ndarray, b: np.ndarray) -> np.ndarray:
