@@ -26,8 +26,7 @@ linearisation, time response) call:
   :mod:`~openimp.dynamics.modes`: :func:`modes`, :func:`modes_along`,
   :func:`mode_motion` (ch 13); :mod:`~openimp.dynamics.frequency`:
   :func:`transfer_function`, :func:`frequency_response`, :func:`state_space`
-  (13.18-13.21); :mod:`~openimp.dynamics.arguments`: the argument checks they
-  share;
+  (13.18-13.21) (their arguments read by :mod:`~openimp.kinematics.inputs`);
 * :mod:`~openimp.dynamics.stepping`, :mod:`~openimp.dynamics.response`: the
   compiled time stepping (Dormand-Prince and the book's exponential step) and
   :func:`simulate`, the time response (ch 14).

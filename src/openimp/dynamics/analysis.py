@@ -24,6 +24,7 @@ from openimp.dynamics.inverse import (
 )
 from openimp.dynamics.laws import law_values
 from openimp.errors import InputError, deprecated
+from openimp.kinematics.inputs import positive
 from openimp.kinematics.sweep import (
     Drive,
     Solver,
@@ -117,11 +118,8 @@ def forces_of(trajectory: Trajectory, *, reactions: bool = True,
 
 def _options(reactions: Any, indeterminate: Any, pivot_tol: Any) -> ForceOptions:
     """The checked options of a force analysis."""
-    if not (isinstance(indeterminate, float | int) and 0 < indeterminate < np.inf):
-        raise InputError(f"indeterminate must be a positive tolerance, got {indeterminate!r}")
-    if not (isinstance(pivot_tol, float | int) and 0 < pivot_tol < np.inf):
-        raise InputError(f"pivot_tol must be a positive tolerance, got {pivot_tol!r}")
-    return ForceOptions(float(pivot_tol), float(indeterminate), bool(reactions))
+    return ForceOptions(positive(pivot_tol, "forces: pivot_tol"),
+                        positive(indeterminate, "forces: indeterminate"), bool(reactions))
 
 
 def _scratch(system: System) -> tuple[Any, Any]:

@@ -28,17 +28,23 @@ from typing import Any
 import numpy as np
 
 from openimp._jit import njit
-from openimp.dynamics.arguments import coordinate_names, floats, per_coordinate, posture
 from openimp.dynamics.inertia import body_inertias, inertia_wrenches, mass_matrix
 from openimp.dynamics.laws import law_values_at
 from openimp.dynamics.loads import applied_loads
 from openimp.errors import AnalysisError, InputError
 from openimp.kinematics.elimination import derivatives, eliminate, jacobian
+from openimp.kinematics.inputs import (
+    finite,
+    given_state,
+    names_of,
+    per_coordinate,
+    positive,
+    posture_input,
+)
 from openimp.kinematics.position import position
 from openimp.kinematics.rates import accelerations, body_operators, velocity, velocity_product
 from openimp.results import EquationsOfMotion
 from openimp.system import (
-    State,
     System,
     data_views,
     dyn_data_views,
@@ -245,33 +251,28 @@ def equations(system: System, q: Any = None, rates: Any = None, *, state: Any = 
     if not isinstance(system, System):
         raise InputError(f"equations takes a compiled System, got {type(system).__name__}")
     nq = system.nq
-    if state is not None:
-        if q is not None or rates is not None:
-            raise InputError("equations: give the posture as q (and rates) or as state=, "
-                             "not both")
-        if not isinstance(state, State) or state.q.shape != (nq,):
-            raise InputError(f"equations: state must be a State of this system ({nq} joint "
-                             f"variables), got {type(state).__name__}")
-        S = state.copy()
+    ptol = positive(pivot_tol, "equations: pivot_tol")
+    given = given_state(system, q, state, "equations", rates)
+    if given is not None:
+        S = given.copy()
         psid = S.qd.copy()
         t = float(S.t[0])
     else:
-        qm = posture(system, q)
-        t = float(floats(t, "t"))
-        S = make_state(system, system.to_internal(qm), t)
-        psid = per_coordinate(system, rates, "rates")
-    for key in coordinate_names(specified):
+        t = finite(t, "equations: t")
+        S = make_state(system, posture_input(system, q), t)
+        psid = per_coordinate(system, rates, "equations: rates")
+    for key in names_of(specified, "equations"):
         S.sgc[system.var_index(key)] = True
     data = make_data(system, nq)
     dyn = make_dyn_data(system, nq)
     M, cv, Qv = np.zeros((nq, nq)), np.zeros(nq), np.zeros(nq)
     if system.laws:
         # the laws read the joint rates phi' psi', which the first evaluation sets
-        eom(system.KP, data.DP, system.YP, dyn.ZP, S, system.gen, float(pivot_tol), psid,
+        eom(system.KP, data.DP, system.YP, dyn.ZP, S, system.gen, ptol, psid,
             (M, cv, Qv))
         dyn.v.law[:] = law_values_at(system, S.q[None, :], S.qd[None, :], t)[0]
     nf, _, ke, pe = eom(system.KP, data.DP, system.YP, dyn.ZP, S, system.gen,
-                        float(pivot_tol), psid, (M, cv, Qv))
+                        ptol, psid, (M, cv, Qv))
     cols = dyn.v.cols[:nf].copy()
     # model units: generalized forces times gscale (L^2 for an angle, L for a length)
     gs = system.Y.gscale[cols]

@@ -75,7 +75,7 @@ from openimp.dynamics.statics import (
     static_point,
 )
 from openimp.errors import AnalysisError, InputError, renamed
-from openimp.kinematics.inputs import names_of, start_state
+from openimp.kinematics.inputs import finite, names_of, positive, start_state
 from openimp.kinematics.track import tracker
 from openimp.results import Equilibrium, EquilibriumPath, SearchStatus, StepKind, Trajectory
 from openimp.system import DAMPER, State, System, make_data, make_dyn_data
@@ -149,13 +149,7 @@ def search_options(where: str, options: dict[str, Any], path: bool = False) -> S
         x = o.get(what, getattr(SearchOptions, what))
         if x is None and none:
             return None
-        try:
-            v = float(x)
-        except (TypeError, ValueError):
-            raise InputError(f"{where}: {what} must be a positive number, got {x!r}") from None
-        if not (v > 0 and math.isfinite(v)):
-            raise InputError(f"{where}: {what} must be a positive number, got {x!r}")
-        return v
+        return positive(x, f"{where}: {what}")
 
     def flag(what: str) -> bool:
         x = o.get(what, getattr(SearchOptions, what))
@@ -386,12 +380,7 @@ def _start(system: System, q: Any, state: Any, specified: Any, t: Any, where: st
     names = names_of(specified, where)
     tf = None
     if t is not None:
-        try:
-            tf = float(t)
-        except (TypeError, ValueError):
-            raise InputError(f"{where}: t must be a finite time, got {t!r}") from None
-        if not math.isfinite(tf):
-            raise InputError(f"{where}: t must be a finite time, got {t!r}")
+        tf = finite(t, f"{where}: t")
     S = start_state(system, q, state, where, 0.0 if tf is None else tf)
     S.qd[:] = 0.0
     S.qdd[:] = 0.0

@@ -22,9 +22,9 @@ from typing import Any
 import numpy as np
 import scipy.linalg
 
-from openimp.dynamics.arguments import floats
 from openimp.dynamics.modes import first_order, free_blocks, no_fgc
 from openimp.errors import AnalysisError, InputError
+from openimp.kinematics.inputs import floats
 from openimp.results import FrequencyResponse, Linearization, StateSpace, TransferFunction
 
 OUTPUT_KINDS = ("position", "velocity", "accel")

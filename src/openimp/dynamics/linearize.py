@@ -12,23 +12,23 @@ System and reused (:func:`kernel_buffers`).
 
 from __future__ import annotations
 
-import warnings
 from typing import Any
 
 import numpy as np
 
-from openimp.dynamics.arguments import (
-    coordinate_names,
-    floats,
-    named,
-    per_coordinate,
-    positive,
-    posture,
-)
 from openimp.dynamics.eom import equations
 from openimp.dynamics.laws import law_derivatives, law_values_at
 from openimp.dynamics.linear import H_MOTION, linearize_kernel
 from openimp.errors import AnalysisError, InputError
+from openimp.kinematics.inputs import (
+    finite,
+    given_state,
+    named,
+    names_of,
+    per_coordinate,
+    positive,
+    posture_input,
+)
 from openimp.kinematics.posture import newton, sgc_residual
 from openimp.results import Linearization
 from openimp.system import FORCE, TORQUE, State, System, make_data, make_dyn_data, make_state
@@ -79,38 +79,28 @@ def linearize(system: System, q: Any = None, rates: Any = None, accels: Any = No
     if not isinstance(system, System):
         raise InputError(f"linearize takes a compiled System, got {type(system).__name__}")
     nq = system.nq
-    pivot_tol = positive(pivot_tol, "pivot_tol")
-    specified = coordinate_names(specified)
-    if isinstance(q, State):
-        warnings.warn("linearize: a State as q is deprecated (q is a posture in model "
-                      "units); pass it as state=", DeprecationWarning, stacklevel=2)
-        if state is not None:
-            raise InputError("linearize: give the State once, as state=")
-        q, state = None, q
+    pivot_tol = positive(pivot_tol, "linearize: pivot_tol")
+    specified = names_of(specified, "linearize")
+    state = given_state(system, q, state, "linearize", rates)
     given = state is None
     if state is not None:
-        if q is not None or rates is not None:
-            raise InputError("linearize: give the set point as q (and rates) or as state=, "
-                             "not both")
-        if state.q.shape != (nq,):
-            raise InputError(f"linearize: the State holds {state.q.shape[0]} joint variables, "
-                             f"the system {nq}")
         vs = system.var_scale
-        qm, t = system.to_model(state.q), state.time
+        qi, t = state.q.copy(), state.time
         specified = list(specified) + [system.var_names[c] for c in np.flatnonzero(state.sgc)]
         rates = {system.var_names[c]: state.qd[c] * vs[c] for c in range(nq) if state.qd[c]}
         if accels is None:
             accels = {system.var_names[c]: state.qdd[c] * vs[c] for c in range(nq)
                       if state.qdd[c]}
     else:
-        qm = posture(system, q)
-        t = float(floats(t, "t"))
-    S = make_state(system, system.to_internal(qm), t)
+        qi = posture_input(system, q)
+        t = finite(t, "linearize: t")
+    qm = system.to_model(qi)
+    S = make_state(system, qi, t)
     for key in specified:
         S.sgc[system.var_index(key)] = True
     vs = system.var_scale
-    psid = per_coordinate(system, rates, "rates")
-    psidd = per_coordinate(system, accels, "accels")
+    psid = per_coordinate(system, rates, "linearize: rates")
+    psidd = per_coordinate(system, accels, "linearize: accels")
     if np.any(psid):
         motion_accelerations(system, S, psid, psidd, named(system, accels), pivot_tol)
     scratch = WORKSPACES.take(system, "linearize", _scratch)  # given back when done

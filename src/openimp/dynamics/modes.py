@@ -15,12 +15,10 @@ from __future__ import annotations
 
 import cmath
 import math
-import warnings
 from typing import Any
 
 import numpy as np
 
-from openimp.dynamics.arguments import coordinate_names, floats, named, per_step, positive
 from openimp.dynamics.eom import mass_floor, massless_message, null_motion, singular_masses
 from openimp.dynamics.linear import H_MOTION, linearize_steps
 from openimp.dynamics.linearize import (
@@ -30,8 +28,9 @@ from openimp.dynamics.linearize import (
     linearize,
     motion_accelerations,
 )
-from openimp.errors import AnalysisError, InputError
+from openimp.errors import AnalysisError, InputError, deprecated
 from openimp.kinematics import sweep
+from openimp.kinematics.inputs import floats, named, names_of, per_step, positive
 from openimp.results import Linearization, ModeMap, Modes, Trajectory
 from openimp.system import System, make_data, make_dyn_data, make_state
 
@@ -120,8 +119,7 @@ def modes(lin: Linearization, **kwargs: Any) -> Modes:
     and :class:`AnalysisError` when there are no FGCs.
     """
     if isinstance(lin, System):
-        warnings.warn("modes(system, ...) is deprecated: linearize first, "
-                      "modes(openimp.linearize(system, ...))", DeprecationWarning, stacklevel=2)
+        deprecated("modes", "modes(system, ...)", "modes(openimp.linearize(system, ...))")
         lin = linearize(lin, **kwargs)
     elif not isinstance(lin, Linearization):
         raise InputError(f"modes takes a Linearization (of openimp.linearize), got "
@@ -223,7 +221,7 @@ def modes_along(system: System, q: Any, rates: Any = None, accels: Any = None, *
     if not isinstance(system, System):
         raise InputError(f"modes_along takes a compiled System, got {type(system).__name__}")
     nq = system.nq
-    pivot_tol = positive(pivot_tol, "pivot_tol")
+    pivot_tol = positive(pivot_tol, "modes_along: pivot_tol")
     if isinstance(q, Trajectory):
         tr = q
         qm = tr.q
@@ -236,7 +234,7 @@ def modes_along(system: System, q: Any, rates: Any = None, accels: Any = None, *
             t = tr.time
     else:
         qm = floats(q, "modes_along: q")
-    specified = coordinate_names(specified)
+    specified = names_of(specified, "modes_along")
     if qm.ndim != 2 or qm.shape[1] != nq or not np.all(np.isfinite(qm)):
         raise InputError(f"modes_along: q must be (steps, {nq}) finite joint variables, got "
                          f"shape {np.shape(qm)}")
@@ -247,8 +245,8 @@ def modes_along(system: System, q: Any, rates: Any = None, accels: Any = None, *
     T = np.broadcast_to(tv, (n,)).copy()
     if n == 0:
         return _mode_map(system, qm, [])
-    psid = per_step(system, rates, n, "rates")
-    psidd = per_step(system, accels, n, "accels")
+    psid = per_step(system, rates, n, "modes_along: rates")
+    psidd = per_step(system, accels, n, "modes_along: accels")
     given = named(system, accels)
     sgc = np.zeros(nq, bool)
     for key in specified:

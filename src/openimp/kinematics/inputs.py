@@ -6,7 +6,12 @@
   internal units (:func:`start_state`);
 * ``specified``: names of joint variables held or driven (:func:`names_of`);
 * ``rates``, ``accels``: model units, the same forms as ``q``
-  (:func:`per_coordinate`).
+  (:func:`per_coordinate`); along a motion, one value or one per step for
+  each named coordinate (:func:`per_step`; :func:`named`: which were named);
+* scalars and arrays: :func:`positive` (tolerances, amplitudes),
+  :func:`finite` (a time), :func:`floats` (numbers of any shape).
+
+Every message names the analysis and the argument (``where``, ``what``).
 """
 
 from __future__ import annotations
@@ -19,6 +24,17 @@ import numpy as np
 
 from openimp.errors import InputError, deprecated
 from openimp.system import State, System, make_state
+
+
+def _value(v: Any, what: str) -> float:
+    """One value of a mapping of joint variables: a finite number."""
+    try:
+        x = float(v)
+    except (TypeError, ValueError):
+        raise InputError(f"{what} must be a number, got {v!r}") from None
+    if not math.isfinite(x):
+        raise InputError(f"{what} must be finite, got {x}")
+    return x
 
 
 def posture_input(system: System, q: Any, what: str = "q") -> np.ndarray:
@@ -36,19 +52,12 @@ def posture_input(system: System, q: Any, what: str = "q") -> np.ndarray:
     if isinstance(q, Mapping):
         qm = system.modeling_q.copy()
         for key, v in q.items():
-            c = system.var_index(key)
-            try:
-                x = float(v)
-            except (TypeError, ValueError):
-                raise InputError(f"{what}[{key!r}] must be a number, got {v!r}") from None
-            if not math.isfinite(x):
-                raise InputError(f"{what}[{key!r}] must be finite, got {x}")
-            qm[c] = x
+            qm[system.var_index(key)] = _value(v, f"{what}[{key!r}]")
         return system.to_internal(qm).copy()
     try:
         arr = np.asarray(q, dtype=float).reshape(-1)
     except (TypeError, ValueError):
-        raise InputError(f"{what} must be {system.nq} numbers (all joint variables) or a "
+        raise InputError(f"{what} must be numbers, the {system.nq} joint variables, or a "
                          f"mapping of joint variables to values, got {q!r}") from None
     if arr.shape != (system.nq,) or not np.all(np.isfinite(arr)):
         raise InputError(
@@ -59,25 +68,37 @@ def posture_input(system: System, q: Any, what: str = "q") -> np.ndarray:
     return system.to_internal(arr).copy()
 
 
-def start_state(system: System, q: Any, state: Any, where: str, t: float = 0.0) -> State:
-    """The start of an analysis from its ``q`` (model units, :func:`posture_input`; a new
-    State at time ``t``, nothing specified) or ``state`` (a
-    :class:`~openimp.system.State`, internal units: a copy).  A State given as ``q``
-    still works for one release, with a DeprecationWarning naming ``state=``."""
+def given_state(system: System, q: Any, state: Any, where: str, rates: Any = None
+                ) -> State | None:
+    """The State an analysis starts from, or None when it starts from ``q`` (and
+    ``rates``).  A State given as ``q`` still works for one release, with a
+    DeprecationWarning naming ``state=``; a State with ``q`` or ``rates`` too, or a
+    ``state`` that is not a State of this system, is an InputError.  Not copied."""
     if isinstance(q, State) and state is None:
         deprecated(where, "a State given as q", "state= (q is always a posture in model units)")
         q, state = None, q
     if state is None:
-        return make_state(system, posture_input(system, q), t)
-    if q is not None:
-        raise InputError(f"{where}: give q (model units) or state= (a State), not both")
+        return None
+    if q is not None or rates is not None:
+        also = " (and rates)" if rates is not None else ""
+        raise InputError(f"{where}: give q (model units){also} or state= (a State), not both")
     if not isinstance(state, State):
         raise InputError(f"{where}: state must be a State (internal units), got "
                          f"{type(state).__name__}; give a posture in model units as q")
     if state.q.shape != (system.nq,) or not np.all(np.isfinite(state.q)):
         raise InputError(f"{where}: the State holds {state.q.shape[0]} joint variables, the "
                          f"system {system.nq}")
-    return state.copy()
+    return state
+
+
+def start_state(system: System, q: Any, state: Any, where: str, t: float = 0.0) -> State:
+    """The start of an analysis from its ``q`` (model units, :func:`posture_input`; a new
+    State at time ``t``, nothing specified) or ``state`` (a
+    :class:`~openimp.system.State`, internal units: a copy; :func:`given_state`)."""
+    given = given_state(system, q, state, where)
+    if given is None:
+        return make_state(system, posture_input(system, q), t)
+    return given.copy()
 
 
 def names_of(specified: Any, where: str) -> list[str]:
@@ -116,11 +137,63 @@ def per_coordinate(system: System, values: Any, what: str) -> np.ndarray:
         return arr / system.var_scale
     for key, v in values.items():
         c = system.var_index(key)
-        try:
-            x = float(v)
-        except (TypeError, ValueError):
-            raise InputError(f"{what}[{key!r}] must be a number, got {v!r}") from None
-        if not math.isfinite(x):
-            raise InputError(f"{what}[{key!r}] must be finite, got {x}")
-        out[c] = x / system.var_scale[c]
+        out[c] = _value(v, f"{what}[{key!r}]") / system.var_scale[c]
     return out
+
+
+def per_step(system: System, values: Any, n: int, what: str) -> np.ndarray:
+    """Rates or accelerations along a motion of ``n`` steps in model units: a mapping of
+    joint variables to one value or ``n`` of them (the others 0), as (n, nq) internal
+    values."""
+    out = np.zeros((n, system.nq))
+    if values is None:
+        return out
+    if not isinstance(values, Mapping):
+        raise InputError(f"{what} must map joint variables to numbers or arrays of {n}")
+    for key, v in values.items():
+        c = system.var_index(key)
+        arr = floats(v, f"{what}[{key!r}]")
+        if arr.ndim > 1 or (arr.ndim == 1 and arr.size != n) or not np.all(np.isfinite(arr)):
+            raise InputError(f"{what}[{key!r}] must be a finite number or {n} of them")
+        out[:, c] = arr / system.var_scale[c]
+    return out
+
+
+def named(system: System, values: Any) -> np.ndarray:
+    """(nq,) bool: the joint variables a mapping of :func:`per_coordinate` or
+    :func:`per_step` names, whatever their values (none for None or an array)."""
+    out = np.zeros(system.nq, bool)
+    if isinstance(values, Mapping):
+        for key in values:
+            out[system.var_index(key)] = True
+    return out
+
+
+def positive(x: Any, what: str) -> float:
+    """``x`` as a finite number > 0 (a tolerance, an amplitude; ``what`` names it)."""
+    try:
+        v = float(x)
+    except (TypeError, ValueError):
+        raise InputError(f"{what} must be a positive number, got {x!r}") from None
+    if not (math.isfinite(v) and v > 0):
+        raise InputError(f"{what} must be a positive number, got {x!r}")
+    return v
+
+
+def finite(x: Any, what: str) -> float:
+    """``x`` as one finite number (a time; ``what`` names it)."""
+    try:
+        v = float(x)
+    except (TypeError, ValueError):
+        raise InputError(f"{what} must be a number, got {x!r}") from None
+    if not math.isfinite(v):
+        raise InputError(f"{what} must be finite, got {x!r}")
+    return v
+
+
+def floats(x: Any, what: str) -> np.ndarray:
+    """``x`` (a number or nested sequence) as a float array (``what`` names it)."""
+    try:
+        return np.asarray(x, float)
+    except (TypeError, ValueError):
+        raise InputError(f"{what} must be numbers, got {x!r}") from None
