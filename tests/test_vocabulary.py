@@ -369,3 +369,57 @@ def test_inputs_rates_and_postures_in_model_units():
             per_coordinate(sy, bad, "rates")
     with pytest.raises(InputError, match="specified"):
         names_of(5, "t")
+
+
+def test_inputs_along_a_motion_and_scalars():
+    """kinematics.inputs along a motion (per_step, named) and for scalars (positive,
+    finite, floats): per_step against a plain division by the variable scales."""
+    from openimp.kinematics.inputs import finite, floats, named, per_step, positive
+
+    m = openimp.Model("slider")
+    m.add_joint("prism", "X", "BASE", "B", origin=(0, 0, 0), axis=(1, 0, 0))
+    m.add_joint("revolute", "R", "B", "C", origin=(0, 0, 0))
+    m.add_point("P", "C", (4.0, 0, 0))
+    sy = openimp.compile(m)
+    x, r = sy.var_index("X"), sy.var_index("R")
+    v = per_step(sy, {"X": [1.0, 2.0, 3.0], "R": 0.5}, 3, "rates")
+    want = np.zeros((3, 2))
+    want[:, x] = np.array([1.0, 2.0, 3.0]) / sy.length_scale
+    want[:, r] = 0.5
+    np.testing.assert_allclose(v, want, rtol=1e-15, atol=0.0)
+    np.testing.assert_array_equal(per_step(sy, None, 2, "rates"), np.zeros((2, 2)))
+    assert named(sy, {"R": 0.0}).tolist() == [i == r for i in range(2)]
+    assert not named(sy, None).any() and not named(sy, np.ones(2)).any()
+    for bad, words in [([1.0, 2.0, 3.0], "must map"), ({"X": [1.0, 2.0]}, "3 of them"),
+                       ({"X": [[1.0] * 3]}, "3 of them"), ({"X": "a"}, "X")]:
+        with pytest.raises(InputError, match=words):
+            per_step(sy, bad, 3, "modes_along: rates")
+    assert positive(2, "tol") == 2.0 and finite("1.5", "t") == 1.5
+    for bad in (0.0, -1.0, math.nan, math.inf, "abc", None):
+        with pytest.raises(InputError, match="tol must be a positive number"):
+            positive(bad, "tol")
+    for bad in (math.nan, math.inf, "abc", None):
+        with pytest.raises(InputError, match="t must be"):
+            finite(bad, "t")
+    with pytest.raises(InputError, match="w must be numbers"):
+        floats("abc", "w")
+
+
+def test_state_as_q_is_one_deprecation_everywhere(dp):
+    """A State given as q: the same shared warning (errors.deprecated, naming state= and
+    the analysis, attributed to the caller's line) and the same numbers as state= in
+    linearize and equations; a State with rates too is refused."""
+    S = make_state(dp, dp.to_internal(np.array([0.2, 0.3])))
+    for f, name in ((openimp.linearize, "linearize"), (openimp.equations, "equations")):
+        ref = f(dp, state=S)
+        with pytest.warns(DeprecationWarning, match=f"{name}: a State given as q .*state=") \
+                as rec:
+            got = f(dp, S)
+        assert rec[0].filename == __file__
+        np.testing.assert_array_equal(got.M, ref.M)
+        with pytest.raises(InputError, match=f"{name}: give q .*not both"):
+            f(dp, state=S, rates={"A": 1.0})
+        with pytest.raises(InputError, match=f"{name}: state must be a State"):
+            f(dp, state=[0.2, 0.3])
+    with pytest.warns(DeprecationWarning, match="modes: .*use modes\\(openimp.linearize"):
+        openimp.modes(dp)
