@@ -86,7 +86,7 @@ def law_values(system: Any, trajectory: Any, times: np.ndarray) -> np.ndarray:
     if not system.laws:
         return out
     rates = trajectory.has_rates
-    for slot, (what, name, fn, col) in enumerate(system.laws):
+    for slot, (what, name, _fn, col) in enumerate(system.laws):
         if col >= 0:
             x = trajectory.q[:, col]
             xd = trajectory.qd[:, col] if rates else np.zeros(n)
@@ -94,22 +94,28 @@ def law_values(system: Any, trajectory: Any, times: np.ndarray) -> np.ndarray:
             x, xd = _element_kinematics(system, trajectory, system.elements.index(name))
         else:
             x = xd = np.zeros(n)
-        f = _scale(system, what, col)
-        label = f"{what} {name!r}" if col < 0 else f"{what} of {system.var_names[col]}"
         for k in range(n):
-            try:
-                v = float(fn(LoadState(trajectory, k, float(times[k]), float(x[k]),
-                                       float(xd[k]))))
-            except InputError:
-                raise
-            except Exception as exc:  # the user's function: any failure is bad input
-                raise InputError(f"{label}: its law failed at step {k}: "
-                                 f"{type(exc).__name__}: {exc}") from None
-            if not math.isfinite(v):
-                raise InputError(f"{label}: its law gave {v} at step {k}; it must give a "
-                                 "finite number")
-            out[k, slot] = v * f
+            s = LoadState(trajectory, k, float(times[k]), float(x[k]), float(xd[k]))
+            out[k, slot] = law_value(system, slot, s, f"step {k}")
     return out
+
+
+def law_value(system: Any, slot: int, s: LoadState, where: str) -> float:
+    """The value of law ``slot`` of ``system`` at ``s``, internal units.  A law that
+    raises or gives something that is not a finite number is an input error naming
+    the element and ``where`` ("step 3", "t = 0.25 s")."""
+    what, name, fn, col = system.laws[slot]
+    label = f"{what} {name!r}" if col < 0 else f"{what} of {system.var_names[col]}"
+    try:
+        v = float(fn(s))
+    except InputError:
+        raise
+    except Exception as exc:  # the user's function: any failure is bad input
+        raise InputError(f"{label}: its law failed at {where}: "
+                         f"{type(exc).__name__}: {exc}") from None
+    if not math.isfinite(v):
+        raise InputError(f"{label}: its law gave {v} at {where}; it must give a finite number")
+    return v * _scale(system, what, col)
 
 
 def _element_kinematics(system: Any, trajectory: Any, i: int) -> tuple[np.ndarray, np.ndarray]:
@@ -134,6 +140,72 @@ def law_values_at(system: Any, q: np.ndarray, qd: np.ndarray, t: float) -> np.nd
                     tracker=tracker(system))
     tr.set_rates(qd.copy(), np.zeros_like(qd), np.zeros(n))
     return law_values(system, tr, np.full(n, float(t)))
+
+
+class Instant:
+    """One instant of a time response as a load law reads it: a trajectory of one step
+    (``q``, ``qd``, ``point``, ``point_velocity`` in model units) read straight from
+    the run's state ``S`` (internal units) and the postures and body rates of its
+    scratch ``data`` (the stage just evaluated), with nothing recomputed."""
+
+    has_rates = True
+    nsteps = 1
+
+    def __init__(self, system: Any, S: Any, data: Any) -> None:
+        self.system = system
+        #: the run's state (set when the run starts)
+        self.S = S
+        self._T0 = data.v.T0
+        self._V = data.v.V
+
+    @property
+    def q(self) -> np.ndarray:
+        return (self.S.q * self.system.var_scale)[None, :]
+
+    @property
+    def qd(self) -> np.ndarray:
+        return (self.S.qd * self.system.var_scale)[None, :]
+
+    def _local(self, name: str) -> tuple[int, np.ndarray]:
+        K = self.system.K
+        p = self.system.point_index(name)
+        b = int(K.ptbody[p])
+        return b, self._T0[b, :3] @ K.ptlocal[p]
+
+    def point(self, name: str) -> np.ndarray:
+        """Global position (1, 3) of a point."""
+        return (self._local(name)[1] * self.system.length_scale)[None, :]
+
+    def point_velocity(self, name: str) -> np.ndarray:
+        """Global velocity (1, 3) of a point (7.27)."""
+        b, r = self._local(name)
+        V = self._V[b]
+        return ((V[:3] + np.cross(V[3:], r)) * self.system.length_scale)[None, :]
+
+
+def law_coordinate(system: Any, tr: Any, slot: int) -> tuple[float, float]:
+    """The coordinate of law ``slot`` and its rate at step 0 of ``tr`` (model units): the
+    joint variable of a joint element, the length of a spring or damper, 0 for a
+    force or torque."""
+    what, name, _fn, col = system.laws[slot]
+    if col >= 0:
+        return float(tr.q[0, col]), float(tr.qd[0, col])
+    if what in ("spring", "damper"):
+        i = system.elements.index(name)
+        p1, p2 = (system.points[int(p)] for p in system.Y.ept[i, :2])
+        dvec = tr.point(p1)[0] - tr.point(p2)[0]
+        ln = float(np.linalg.norm(dvec))
+        dv = tr.point_velocity(p1)[0] - tr.point_velocity(p2)[0]
+        return ln, float(dvec @ dv / ln) if ln > 0 else 0.0
+    return 0.0, 0.0
+
+
+def law_values_now(system: Any, tr: Any, t: float, out: np.ndarray) -> None:
+    """The value of every law of ``system`` at step 0 of ``tr`` (an :class:`Instant`) at
+    time t into out (nlaw,), internal units."""
+    for slot in range(len(system.laws)):
+        x, xd = law_coordinate(system, tr, slot)
+        out[slot] = law_value(system, slot, LoadState(tr, 0, t, x, xd), f"t = {t:.6g} s")
 
 
 # ----------------------------------------------------------------------------- nonlinear laws
