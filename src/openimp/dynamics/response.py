@@ -205,6 +205,8 @@ def simulate(
         raise InputError("keep=False needs stream= (the outputs must go somewhere)")
     S, q_given, qd_given = _initial(system, q, rates, state, float(tout[0]))
     drive = _drive(system, motion, specified, S, q_given)
+    if drive.timed:  # the motions over the run checked before it starts
+        drive.at(tout, np.zeros((tout.size, drive.cols.size, 3)))
     r = Run(system, method, drive, opts, opts.events)
     try:
         r.start(S, float(tout[0]), q_given, qd_given, None if state is None else state.qd)
@@ -268,7 +270,7 @@ def _initial(system: System, q: Any, rates: Any, state: State | None, t0: float
             raise InputError("give either state= or q/rates, not both")
         if not isinstance(state, State) or state.q.shape != (system.nq,):
             raise InputError(f"state must be a State of this system ({system.nq} joint "
-                             "variables), e.g. from openimp.make_state")
+                             "variables), e.g. from openimp.system.make_state")
         if not (np.all(np.isfinite(state.q)) and np.all(np.isfinite(state.qd))):
             raise InputError("state: its joint variables and rates must be finite")
         return make_state(system, state.q, t0), {}, {}
