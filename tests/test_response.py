@@ -1065,7 +1065,7 @@ def test_q0_is_deprecated():
         old = openimp.simulate(sy, times=times, q0={"X": 0.2})
     new = openimp.simulate(sy, times=times, q={"X": 0.2})
     assert np.array_equal(old.q, new.q) and old.q[0, 0] == 0.2
-    with pytest.raises(InputError, match="give q .*not both"):
+    with pytest.raises(InputError, match=r"give q .*not both"):
         openimp.simulate(sy, times=times, q={"X": 0.2}, q0={"X": 0.2})
 
 
