@@ -31,7 +31,7 @@ from openimp.dynamics.inertia import body_inertias, inertia_wrenches, mass_matri
 from openimp.dynamics.laws import law_values_at
 from openimp.dynamics.loads import applied_loads
 from openimp.errors import AnalysisError, InputError
-from openimp.kinematics.elimination import derivatives, eliminate, jacobian
+from openimp.kinematics.elimination import derivatives, eliminate, free_columns, jacobian
 from openimp.kinematics.position import position
 from openimp.kinematics.rates import accelerations, body_operators, velocity, velocity_product
 from openimp.system import (
@@ -58,13 +58,11 @@ def generalized(KP: tuple, DP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | Non
     position(KP, DP, S, gen, 1)
     jacobian(KP, DP, S, gen)
     rank = eliminate(DP, S.sgc, ptol)[0]
-    for a in range(nq):
-        d.used[a] = False
-    for k in range(rank):
-        d.used[d.pcol[k]] = True
+    free = d.used[:nq]
+    free_columns(DP, S.sgc, rank, free)
     nf = 0
     for a in range(nq):
-        if S.sgc[a] or not d.used[a]:
+        if S.sgc[a] or free[a]:
             z.cols[nf] = a
             nf += 1
     G = z.Gf[:, :nf]

@@ -27,7 +27,7 @@ from openimp.dynamics.outputs import OutputBuffer
 from openimp.dynamics.stepping import RunEnd, Stage
 from openimp.dynamics.vibration import check_mass, law_derivatives, linearize
 from openimp.errors import AnalysisError, InputError
-from openimp.kinematics.elimination import eliminate, jacobian
+from openimp.kinematics.elimination import eliminate, free_columns, jacobian
 from openimp.kinematics.position import position
 from openimp.kinematics.posture import newton
 from openimp.motion import as_motion
@@ -308,9 +308,8 @@ class Run:
                                  "tie them together): give rates of independent coordinates, "
                                  "at most as many as the mobility")
             rank = rank1
-        used = np.zeros(system.nq, bool)
-        used[np.asarray(self.data.view("pcol")[:rank], np.int64)] = True
-        free = ~(base | used)
+        free = np.zeros(system.nq, np.bool_)  # the given-rate columns free (never pivoted)
+        free_columns(DP, base, rank, free)
         S.sgc[:] = base
         cols = np.flatnonzero(free)
         w.fcols[:cols.size] = cols

@@ -53,7 +53,7 @@ from openimp._jit import njit, packed_views
 from openimp.dynamics.eom import eom_loads, eom_rates
 from openimp.dynamics.hooks import Hook, call_hook
 from openimp.dynamics.linear import H_MOTION, linearize_kernel
-from openimp.kinematics.elimination import eliminate, jacobian
+from openimp.kinematics.elimination import eliminate, free_columns, jacobian
 from openimp.kinematics.position import position
 from openimp.kinematics.posture import newton
 from openimp.system import (
@@ -582,24 +582,17 @@ def choose(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, W: Work) -> b
     re-read from the joint rates and accelerations (w.q0, w.qd0, w.qdd0).
     Returns True when the set changed."""
     w = step_views(W.P)
-    d = data_views(DP)
     nq = S.q.shape[0]
     for a in range(nq):
         S.q[a] = w.q0[a]
     position(KP, DP, S, gen, 1)
     jacobian(KP, DP, S, gen)
     rank, quality, _ = eliminate(DP, S.sgc, w.ptol[0])
-    for a in range(nq):
-        w.keep[a] = False
-    for k in range(rank):
-        w.keep[d.pcol[k]] = True
-    nF = 0
+    nF = free_columns(DP, S.sgc, rank, w.keep)
     same = True
     for a in range(nq):
-        if not (S.sgc[a] or w.keep[a]):
-            if w.role[a] != 1:
-                same = False
-            nF += 1
+        if w.keep[a] and w.role[a] != 1:
+            same = False
     if same and nF == w.nF[0]:
         w.qref[0] = quality
         return False
@@ -615,15 +608,12 @@ def choose(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, W: Work) -> b
     w.qref[0] = quality
     # the new set: FGCs are the columns neither specified nor pivoted
     eliminate(DP, S.sgc, w.ptol[0])
-    for a in range(nq):
-        w.keep[a] = False
-    for k in range(rank):
-        w.keep[d.pcol[k]] = True
+    free_columns(DP, S.sgc, rank, w.keep)
     nF = 0
     for a in range(nq):
         if w.role[a] == 1:
             w.role[a] = 0
-        if not (S.sgc[a] or w.keep[a]):
+        if w.keep[a]:
             w.role[a] = 1
             w.fcols[nF] = a
             nF += 1
