@@ -217,7 +217,7 @@ class Run:
         nf = nF + w.scols.size
         lin = self.W.lin
         D, K = lin[stp.LIN_D], lin[stp.LIN_K]
-        Gl, qpl, qdpl = lin[6], lin[7], lin[stp.LIN_QDPL]
+        Gl, qpl, qdpl = lin[stp.LIN_GL], lin[stp.LIN_QPL], lin[stp.LIN_QDPL]
         cols = w.lcols[:nf]
         # the directions of the coordinates' motion and of their rates' (the side of a
         # law's kink the step goes to)
@@ -245,7 +245,7 @@ class Run:
         the start."""
         system, w = self.system, self.w
         pivot_tol, tol = float(w.ptol[0]), float(w.ctol[0])
-        KP, DP = self.k[0], self.k[1]
+        KP, DP = self.system.KP, self.data.DP
         self.S = self.instant.S = S
         if self.drive.cols.size:
             self.drive.at(np.array([t0]), w.ms[:1])

@@ -150,7 +150,12 @@ GL_W = np.array([5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0])
 #: the options of :func:`~openimp.dynamics.linear.linearize_kernel` (w.lopts) and the
 #: arrays of its linear model (Work.lin), by name
 LIN_PTOL, LIN_CTOL, LIN_STEP, LIN_MOVING, LIN_KEEP = range(5)
-LIN_M, LIN_D, LIN_K, LIN_F, LIN_QDPL = 0, 1, 2, 3, 8
+LIN_M, LIN_D, LIN_K, LIN_F, LIN_GL, LIN_QPL, LIN_QDPL = 0, 1, 2, 3, 6, 7, 8
+#: the three works and powers of the energy audit (w.w0, w.pw, ...): of the drives, of
+#: the loads without potential, dissipated
+DRIVE, LOADS, DISSIPATED = range(3)
+#: the row of w.ms at the book step's middle (row 0 its start, the last its end)
+BOOK_MID = 1
 
 #: The arrays of one integration (internal units).  Sizes: nq joint variables, ns SGCs,
 #: nstage Dormand-Prince stages (7), n = 2 nq + 3 (the book's augmented matrix), nlaw
@@ -363,13 +368,13 @@ def _close(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, W: Work,
         S.sgc[w.fcols[j]] = True
     for s in range(w.scols.shape[0]):
         S.q[w.scols[s]] = w.ms[srow, s, 0]
-    res = newton(KP, DP, S, gen, w.ctol[0], w.ptol[0], w.maxit[0], False)
+    status, _, _, quality, _ = newton(KP, DP, S, gen, w.ctol[0], w.ptol[0], w.maxit[0], False)
     for a in range(nq):
         S.sgc[a] = w.keep[a]
     w.closes[0] += 1
-    if res[0] != 0:
+    if status != 0:
         return NO_CLOSURE
-    w.quality[0] = res[3]
+    w.quality[0] = quality
     return OK
 
 
@@ -445,9 +450,9 @@ def _powers(YP: tuple, ZP: tuple, S: tuple, nf: int, cols: np.ndarray, W: Work,
             cons += z.epower[i]
         elif y.ekind[i] == DAMPER:
             damp += z.epower[i]
-    w.pw[0] = drive
-    w.pw[1] = applied - cons - damp
-    w.pw[2] = -damp
+    w.pw[DRIVE] = drive
+    w.pw[LOADS] = applied - cons - damp
+    w.pw[DISSIPATED] = -damp
 
 
 @njit(nrt=False)
@@ -1064,7 +1069,7 @@ def book_attempt(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
     h = w.h[0]
     for i in range(NSTAGE):  # rows: 0 the start, 1 the middle, the last the end
         w.mt[i] = w.t[0]
-    w.mt[1] = w.t[0] + 0.5 * h
+    w.mt[BOOK_MID] = w.t[0] + 0.5 * h
     w.mt[NSTAGE - 1] = w.t[0] + h
     if motion_rows(W, NSTAGE) != OK:
         return FAILED
@@ -1079,9 +1084,9 @@ def book_attempt(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
     if st == OK:  # the middle, for the works
         book_mid(W)
         S.t[0] = w.t[0] + 0.5 * h
-        st = close_stage(KP, DP, S, gen, W, 0.5 * h, 1)
+        st = close_stage(KP, DP, S, gen, W, 0.5 * h, BOOK_MID)
     if st == OK:
-        st = evaluate(KP, DP, YP, ZP, S, gen, W, 1)
+        st = evaluate(KP, DP, YP, ZP, S, gen, W, BOOK_MID)
     if st == OK:
         book_end(W)
         S.t[0] = w.t[0] + h
