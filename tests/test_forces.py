@@ -30,14 +30,15 @@ never the drive or the joint loads a second time.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
 
 import numpy as np
 import pytest
 
 import openimp
+from helpers.geometry import cardan_example_51
+from helpers.mechanics import Ref
+from helpers.models import Spec, slider_crank_joints
 from openimp.motion import Polynomial
-from test_kinematics import cardan_example_51  # the shape matrices of book example 5.1
 
 DEG = math.pi / 180
 G_EARTH = 9.81
@@ -85,234 +86,6 @@ def d1_central(f: np.ndarray, h: float) -> np.ndarray:
     (-f[k+2] + 8 f[k+1] - 8 f[k-1] + f[k-2]) / (12 h); truncation error
     h^4 / 30 |f^(5)|."""
     return (-f[4:] + 8 * f[3:-1] - 8 * f[1:-3] + f[:-4]) / (12 * h)
-
-
-# =============================================================================
-# A model builder that records what it gave the model (for the numpy references)
-# =============================================================================
-
-
-@dataclass
-class Spec:
-    """A Model and, beside it, the data the references need (model units, global
-    coordinates at the modeling posture)."""
-
-    model: openimp.Model
-    gravity: np.ndarray = field(default_factory=lambda: np.zeros(3))
-    mass: dict = field(default_factory=dict)  # body -> (m, c0 (3,), Ic0 (3, 3))
-    points: dict = field(default_factory=dict)  # point -> body
-    springs: list = field(default_factory=list)  # (name, p1, p2, k, l0)
-    dampers: list = field(default_factory=list)  # (name, p1, p2, c)
-    forces: list = field(default_factory=list)  # (name, point, f, dir (3,) | (pa, pb))
-    torques: list = field(default_factory=list)  # (name, body, t, dir (3,) | (pa, pb))
-    jsprings: dict = field(default_factory=dict)  # joint -> (k, q0)
-    jdampers: dict = field(default_factory=dict)  # joint -> c
-    jforces: dict = field(default_factory=dict)  # joint -> f
-
-    def joint(self, name, b1, b2, origin, axis=(0, 0, 1), kind="revolute", **kw):
-        self.model.add_joint(kind, name, b1, b2, origin=origin, axis=axis, **kw)
-
-    def set_gravity(self, g):
-        self.gravity = np.asarray(g, float)
-        self.model.set_gravity(g)
-
-    def add_mass(self, body, m, c0, Ic0):
-        assert self.model.add_mass(body, m, center=c0, inertia=Ic0) == []
-        self.mass[body] = (m, np.asarray(c0, float), np.asarray(Ic0, float))
-
-    def point(self, name, body, xyz):
-        self.model.add_point(name, body, xyz)
-        self.points[name] = body
-
-    def spring(self, name, p1, p2, k, l0):
-        self.model.add_spring(name, p1, p2, k, l0)
-        self.springs.append((name, p1, p2, k, l0))
-
-    def damper(self, name, p1, p2, c):
-        self.model.add_damper(name, p1, p2, c)
-        self.dampers.append((name, p1, p2, c))
-
-    def force(self, name, p, f, direction):
-        if isinstance(direction[0], str):
-            self.model.add_force(name, p, f, along=direction)
-        else:
-            self.model.add_force(name, p, f, direction=direction)
-        self.forces.append((name, p, f, direction))
-
-    def torque(self, name, body, t, direction):
-        if isinstance(direction[0], str):
-            self.model.add_torque(name, body, t, along=direction)
-        else:
-            self.model.add_torque(name, body, t, direction=direction)
-        self.torques.append((name, body, t, direction))
-
-    def joint_spring(self, joint, k, q0):
-        self.model.set_joint_spring(joint, k, q0)
-        self.jsprings[joint] = (k, q0)
-
-    def joint_damper(self, joint, c):
-        self.model.set_joint_damper(joint, c)
-        self.jdampers[joint] = c
-
-    def joint_force(self, joint, f):
-        self.model.set_joint_force(joint, f)
-        self.jforces[joint] = f
-
-    def compile(self):
-        return openimp.compile(self.model)
-
-
-def spec_cache():
-    """A ``compiled(key, build) -> (spec, system)`` that compiles each spec once per test
-    session; one cache per test module (its keys are its own)."""
-    cache: dict = {}
-
-    def compiled(key, build):
-        if key not in cache:
-            spec = build()
-            cache[key] = (spec, spec.compile())
-        return cache[key]
-
-    return compiled
-
-
-class Ref:
-    """Plain-numpy mechanics of a Spec along a trajectory (model units, global axes)."""
-
-    def __init__(self, spec: Spec, tr: openimp.Trajectory) -> None:
-        self.spec = spec
-        self.tr = tr
-        self.rates = tr.has_rates
-
-    # --------------------------------------------------------------- bodies
-    def moved(self, body):
-        """T_0b(step) T_0b(modeling)^-1 (n, 4, 4): what carries the body's points from
-        the modeling posture, where they were given, to every step."""
-        return self.tr.posture(body) @ np.linalg.inv(self.spec.model.body_frames[body])
-
-    def centre(self, body):
-        """Centre of mass (n, 3), its velocity and acceleration (zeros without rates)."""
-        _, c0, _ = self.spec.mass[body]
-        T = self.moved(body)
-        c = np.einsum("nij,j->ni", T[:, :3, :3], c0) + T[:, :3, 3]
-        if not self.rates:
-            return c, np.zeros_like(c), np.zeros_like(c)
-        V, A = self.tr.velocity_screw(body), self.tr.acceleration_screw(body)
-        v, w, a, al = V[:, :3], V[:, 3:], A[:, :3], A[:, 3:]
-        vc = v + np.cross(w, c)
-        ac = a + np.cross(al, c) + np.cross(w, vc)
-        return c, vc, ac
-
-    def inertia(self, body):
-        """Centroidal inertia on global axes (n, 3, 3)."""
-        _, _, I0 = self.spec.mass[body]
-        R = self.moved(body)[:, :3, :3]
-        return R @ I0 @ np.swapaxes(R, 1, 2)
-
-    def kinetic(self):
-        """T = sum 1/2 m |v_c|^2 + 1/2 w . I_c w (n,)."""
-        T = np.zeros(self.tr.nsteps)
-        for b, (m, _, _) in self.spec.mass.items():
-            _, vc, _ = self.centre(b)
-            w = self.tr.velocity_screw(b)[:, 3:]
-            T += 0.5 * m * np.sum(vc * vc, 1) + 0.5 * np.einsum("ni,nij,nj->n", w,
-                                                                self.inertia(b), w)
-        return T
-
-    # --------------------------------------------------------------- elements
-    def length(self, p1, p2):
-        """Length (n,), its rate (n,) and the unit vector from p2 to p1 (n, 3)."""
-        d = self.tr.point(p1) - self.tr.point(p2)
-        ln = np.linalg.norm(d, axis=1)
-        u = d / ln[:, None]
-        if not self.rates:
-            return ln, np.zeros_like(ln), u
-        dv = self.tr.point_velocity(p1) - self.tr.point_velocity(p2)
-        return ln, np.sum(u * dv, 1), u
-
-    def direction(self, direction):
-        """A fixed global direction or the unit vector from point a toward point b (n, 3)."""
-        if isinstance(direction[0], str):
-            d = self.tr.point(direction[1]) - self.tr.point(direction[0])
-        else:
-            d = np.tile(np.asarray(direction, float), (self.tr.nsteps, 1))
-        return d / np.linalg.norm(d, axis=1)[:, None]
-
-    def potential(self):
-        """V = -sum m g.c + 1/2 k (l - l0)^2 of the point springs + 1/2 k (q - q0)^2 of the
-        joint springs (n,)."""
-        V = np.zeros(self.tr.nsteps)
-        for b, (m, _, _) in self.spec.mass.items():
-            V -= m * self.centre(b)[0] @ self.spec.gravity
-        for _, p1, p2, k, l0 in self.spec.springs:
-            V += 0.5 * k * (self.length(p1, p2)[0] - l0) ** 2
-        for j, (k, q0) in self.spec.jsprings.items():
-            V += 0.5 * k * (self.tr.variable(j) - q0) ** 2
-        return V
-
-    def applied(self, body):
-        """Applied loads on ``body`` (gravity, point springs and dampers, forces and
-        torques): a list of (force (n, 3), point of application (n, 3) or None for a
-        pure moment (then ``force`` is the moment))."""
-        out = []
-        n = self.tr.nsteps
-        if body in self.spec.mass:
-            m = self.spec.mass[body][0]
-            out.append((np.tile(m * self.spec.gravity, (n, 1)), self.centre(body)[0]))
-        pairs = [(p1, p2, k * (self.length(p1, p2)[0] - l0))
-                 for _, p1, p2, k, l0 in self.spec.springs]
-        pairs += [(p1, p2, c * self.length(p1, p2)[1]) for _, p1, p2, c in self.spec.dampers]
-        for p1, p2, t in pairs:  # tension t pulls the two ends together
-            u = self.length(p1, p2)[2]
-            if self.spec.points[p1] == body:
-                out.append((-t[:, None] * u, self.tr.point(p1)))
-            if self.spec.points[p2] == body:
-                out.append((t[:, None] * u, self.tr.point(p2)))
-        for _, p, f, d in self.spec.forces:
-            if self.spec.points[p] == body:
-                out.append((f * self.direction(d), self.tr.point(p)))
-        for _, b, t, d in self.spec.torques:
-            if b == body:
-                out.append((t * self.direction(d), None))
-        return out
-
-    def joint_origin(self, joint):
-        """Origin of the joint frame on its first body (n, 3)."""
-        J = self.spec.model.joints[joint]
-        return np.einsum("nij,j->ni", self.moved(J.body1), J.frame1[:, 3])[:, :3]
-
-    def balance(self, F: openimp.Forces, body):
-        """Newton-Euler residuals of ``body``: (n, 3) force and (n, 3) moment about the
-        centre (sum of the loads minus m a_c, minus I_c alpha + w x I_c w), and their
-        scales (the largest force and the largest moment term met)."""
-        m, _, _ = self.spec.mass[body]
-        c, _, ac = self.centre(body)
-        n = self.tr.nsteps
-        fres = -m * ac
-        mres = np.zeros((n, 3))
-        if self.rates:
-            w = self.tr.velocity_screw(body)[:, 3:]
-            al = self.tr.acceleration_screw(body)[:, 3:]
-            Ic = self.inertia(body)
-            mres = -(np.einsum("nij,nj->ni", Ic, al) + np.cross(w, np.einsum("nij,nj->ni",
-                                                                              Ic, w)))
-        sf, sm = float(np.max(np.abs(fres))), float(np.max(np.abs(mres)))
-        loads = self.applied(body)
-        for j, J in self.spec.model.joints.items():
-            if body not in (J.body1, J.body2):
-                continue
-            R = F.reaction(j, "global")
-            sgn = 1.0 if body == J.body2 else -1.0  # first body on second: +, its reaction -
-            loads.append((sgn * R[:, :3], self.joint_origin(j)))
-            loads.append((sgn * R[:, 3:], None))
-        for f, r in loads:
-            mom = f if r is None else np.cross(r - c, f)
-            if r is not None:
-                fres = fres + f
-                sf = max(sf, float(np.nanmax(np.abs(f))))
-            mres = mres + mom
-            sm = max(sm, float(np.nanmax(np.abs(mom))))
-        return fres, mres, sf, sm
 
 
 # =============================================================================
@@ -402,22 +175,6 @@ def arm(loads: bool = True) -> Spec:
         s.joint_force("J2", -4.0)
         s.joint_force("J3", 2.5)
     return s
-
-
-def slider_crank_joints(name: str, a: float, b: float, e: float, th0: float
-                        ) -> tuple[Spec, np.ndarray, np.ndarray]:
-    """The joints of a slider-crank: crank a (A BASE->CRANK, from the origin at angle
-    th0), rod b (B CRANK->ROD), pin C ROD->SLIDER, prismatic D BASE->SLIDER along X on
-    the line y = e.  Returns the spec and the pins B and C."""
-    B = a * np.array([math.cos(th0), math.sin(th0), 0.0])
-    C = np.array([B[0] + math.sqrt(b * b - (e - B[1]) ** 2), e, 0.0])
-    s = Spec(openimp.Model(name))
-    s.joint("A", "BASE", "CRANK", np.zeros(3))
-    s.joint("B", "CRANK", "ROD", B)
-    s.joint("C", "ROD", "SLIDER", C)
-    s.joint("D", "BASE", "SLIDER", (0.0, e, 0.0), (1.0, 0.0, 0.0), kind="prismatic",
-            ref=(0.0, 1.0, 0.0), origin2=C)
-    return s, B, C
 
 
 def slider_crank() -> Spec:

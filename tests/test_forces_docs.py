@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from test_python_docs import blocks  # the doc pages' helpers
+from helpers.docs import blocks
 
 DOC = Path(__file__).parent.parent / "docs" / "forces.md"
 

@@ -36,6 +36,7 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
+from helpers.decks import line_of, run_deck, write
 from openimp.imp.deck import load
 from openimp.imp.interp import DeckError
 
@@ -47,25 +48,6 @@ DEG = math.pi / 180.0
 # =============================================================================
 # helpers
 # =============================================================================
-def run_deck(path: Path):
-    deck = load(path)
-    echo: list[str] = []
-    runs = deck.run(echo=echo.append)
-    return runs, echo
-
-
-def write(tmp_path: Path, text: str, name: str = "deck.imp") -> Path:
-    p = tmp_path / name
-    p.write_text(text)
-    return p
-
-
-def line_of(text: str, start: str) -> int:
-    """1-based number of the first line of ``text`` that starts with ``start``."""
-    for i, ln in enumerate(text.splitlines(), start=1):
-        if ln.startswith(start):
-            return i
-    raise AssertionError(start)
 
 
 def search_lines(echo: list[str]) -> list[int]:

@@ -17,20 +17,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from helpers.docs import blocks
+
 DOC = Path(__file__).parent.parent / "docs" / "python.md"
 
 #: positions are solved to 1e-10 internal units: 1e-9 in model lengths
 TOL = 1e-9
-
-
-def blocks(text: str) -> list[str]:
-    """The ```python code blocks of a markdown text, in order."""
-    return re.findall(r"^```python\n(.*?)^```$", text, flags=re.S | re.M)
-
-
-def squash(text: str) -> str:
-    """``text`` with every run of white space one blank (for phrases across lines)."""
-    return " ".join(text.split())
 
 
 def coupler_point(theta: np.ndarray) -> np.ndarray:

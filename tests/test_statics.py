@@ -1,5 +1,5 @@
 """Static equilibrium (book ch 12): openimp.equilibrium and openimp.equilibria against
-references written here (and in tests/statics_models.py) in plain numpy / scipy.
+references written here (and in tests/helpers/statics_models.py) in plain numpy / scipy.
 
 * an upright pendulum with a torsional spring (k < m g l): every root of
   k theta = m g l sin theta by brentq; seek_stable leads to a stable root from any
@@ -42,8 +42,8 @@ import pytest
 from scipy.optimize import brentq, minimize, root
 
 import openimp
-from openimp.errors import InputError
-from statics_models import (
+from helpers.models import spec_cache
+from helpers.statics_models import (
     DEG,
     DP,
     SC,
@@ -67,7 +67,7 @@ from statics_models import (
     upright_pendulum,
     vehicle,
 )
-from test_forces import spec_cache
+from openimp.errors import InputError
 
 #: Newton-Euler balance: residual relative to the largest force / moment term of a body
 NE_TOL = 1e-9

@@ -25,8 +25,9 @@ import scipy.signal
 from scipy.integrate import solve_ivp
 
 import openimp
+from helpers.geometry import rssr_geometry, rssr_output
+from helpers.models import Rig, build_fivebar
 from openimp.dynamics.eom import equations
-from test_kinematics import Rig, build_fivebar, rssr_geometry, rssr_output
 
 G = 9.81
 
