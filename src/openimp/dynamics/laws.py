@@ -172,15 +172,23 @@ class Instant:
         b = int(K.ptbody[p])
         return b, self._T0[b, :3] @ K.ptlocal[p]
 
+    def motion(self, name: str) -> tuple[np.ndarray, np.ndarray]:
+        """Global position and velocity (3,) of a point, model units (7.27)."""
+        b, r = self._local(name)
+        v, w = self._V[b, :3], self._V[b, 3:]
+        # w x r by hand: numpy's cross costs more than the rest of a law for a 3-vector
+        vel = np.array((v[0] + w[1] * r[2] - w[2] * r[1], v[1] + w[2] * r[0] - w[0] * r[2],
+                        v[2] + w[0] * r[1] - w[1] * r[0]))
+        L = self.system.length_scale
+        return r * L, vel * L
+
     def point(self, name: str) -> np.ndarray:
         """Global position (1, 3) of a point."""
         return (self._local(name)[1] * self.system.length_scale)[None, :]
 
     def point_velocity(self, name: str) -> np.ndarray:
         """Global velocity (1, 3) of a point (7.27)."""
-        b, r = self._local(name)
-        V = self._V[b]
-        return ((V[:3] + np.cross(V[3:], r)) * self.system.length_scale)[None, :]
+        return self.motion(name)[1][None, :]
 
 
 def law_coordinate(system: Any, tr: Any, slot: int) -> tuple[float, float]:
@@ -193,10 +201,14 @@ def law_coordinate(system: Any, tr: Any, slot: int) -> tuple[float, float]:
     if what in ("spring", "damper"):
         i = system.elements.index(name)
         p1, p2 = (system.points[int(p)] for p in system.Y.ept[i, :2])
-        dvec = tr.point(p1)[0] - tr.point(p2)[0]
+        if isinstance(tr, Instant):
+            (r1, v1), (r2, v2) = tr.motion(p1), tr.motion(p2)
+        else:
+            r1, r2 = tr.point(p1)[0], tr.point(p2)[0]
+            v1, v2 = tr.point_velocity(p1)[0], tr.point_velocity(p2)[0]
+        dvec = r1 - r2
         ln = float(np.linalg.norm(dvec))
-        dv = tr.point_velocity(p1)[0] - tr.point_velocity(p2)[0]
-        return ln, float(dvec @ dv / ln) if ln > 0 else 0.0
+        return ln, float(dvec @ (v1 - v2) / ln) if ln > 0 else 0.0
     return 0.0, 0.0
 
 
