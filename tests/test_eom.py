@@ -15,6 +15,7 @@ import pytest
 
 import openimp
 from openimp.dynamics.eom import equations
+from openimp.system import make_state
 
 H = 1e-6  # central-difference step (rad); truncation ~H^2, round-off ~1e-16/H
 
@@ -107,7 +108,7 @@ def test_drive_equals_force_analysis():
     system = _fourbar()
     th = np.linspace(0.2, 1.2, 6)
     tr = openimp.sweep(system, {"A": th}, rates={"A": 1.3}, accels={"A": -0.8})
-    F = openimp.forces(tr)
+    F = openimp.forces_of(tr)
     for k in range(len(th)):
         e = _eq(system, tr.q[k], {"A": 1.3}, ["A"])
         np.testing.assert_allclose(e.drive([-0.8]), F.drive["A.theta"][k],
@@ -123,3 +124,50 @@ def test_free_coordinate_acceleration_balances():
     assert e.coords and not e.specified.any()
     a = e.free_accelerations()
     np.testing.assert_allclose(e.drive(a), 0.0, atol=1e-12 * np.abs(e.Q).max())
+
+
+def test_equations_exported_and_state_and_mapping_give_the_same():
+    """openimp.equations is the module's entry; q as a mapping (the rest at the modeling
+    posture) and state= (a State, internal units) give the equations of q as an array."""
+    assert openimp.equations is equations
+    system = _fourbar()
+    q0 = _posture(system, {"A": 0.5})
+    e = equations(system, q0, {"A": 1.3}, specified=["A"])
+    S = make_state(system, system.to_internal(q0))
+    S.sgc[system.var_index("A")] = True
+    S.qd[system.var_index("A")] = 1.3
+    es = equations(system, state=S)
+    assert isinstance(es, openimp.EquationsOfMotion) and es.coords == e.coords
+    for name in ("M", "c", "Q"):
+        np.testing.assert_array_equal(getattr(es, name), getattr(e, name))
+    qmap = dict(zip(system.var_names, q0, strict=True))
+    np.testing.assert_array_equal(equations(system, qmap, specified="A").M,
+                                  equations(system, q0, specified=["A"]).M)
+    with pytest.raises(openimp.InputError, match="not both"):
+        equations(system, q0, state=S)
+
+
+def test_singular_mass_is_one_test_with_one_message():
+    """A pendulum with a massless second link: M_FF is singular (its B row is zero).
+    equations() says so in ``singular`` and free_accelerations raises it; modes and
+    simulate give the same message, which names the coordinate and the body."""
+    md = openimp.Model("pendulum with a massless link")
+    md.add_joint("revolute", "A", "BASE", "ROD", origin=(0, 0, 0))
+    md.add_mass("ROD", 3.0, (0, -0.6, 0), np.diag([0.36, 0.0, 0.36]))
+    md.add_joint("revolute", "B", "ROD", "LINK2", origin=(0, -1.2, 0))
+    md.set_gravity((0, -9.81, 0))
+    sy = openimp.compile(md)
+    e = equations(sy, {"A": 0.2})
+    # the reference: M's B.theta row and column are exactly zero (LINK2 has no mass)
+    b = e.coords.index("B.theta")
+    assert np.all(e.M[b] == 0.0) and np.all(e.M[:, b] == 0.0)
+    assert "moving B.theta together moves bodies LINK2 without kinetic energy" in e.singular
+    with pytest.raises(openimp.AnalysisError) as exc:
+        e.free_accelerations()
+    assert str(exc.value) == e.singular
+    with pytest.raises(openimp.InputError) as exc:
+        openimp.modes(openimp.linearize(sy, [0.2, 0.0]))
+    assert str(exc.value) == e.singular
+    # with the massless link given a mass the same test finds M_FF regular
+    md.add_mass("LINK2", 1e-3, (0, -1.5, 0))
+    assert equations(openimp.compile(md), {"A": 0.2}).singular == ""

@@ -288,7 +288,7 @@ def test_newton_euler_balance_of_every_body(name, rates):
     the RSCR and the 3R arm: all six.  Quasi-static: the same with no inertia and no
     damper forces.  Tolerance NE_TOL relative to the largest term of the body."""
     s, tr, bodies, comps = _sweep_case(name, rates=rates)
-    F = openimp.forces(tr)
+    F = openimp.forces_of(tr)
     ref = Ref(s, tr)
     for b in bodies:
         fres, mres, sf, sm = ref.balance(F, b)
@@ -310,7 +310,7 @@ def test_planar_fourbar_out_of_plane_components_are_indeterminate():
     unknown components make Fz, Mx, My unknown and leave Fx, Fy, Mz (the joint axes
     are along Z); on the second body's axes likewise."""
     _, tr, _, _ = _sweep_case("planar four-bar", n=30)
-    F = openimp.forces(tr)
+    F = openimp.forces_of(tr)
     want = np.array([True, True, False, False, False, True])
     for j in "ABCD":
         assert np.array_equal(F.determinate(j), np.tile(want, (tr.nsteps, 1))), j
@@ -331,7 +331,7 @@ def test_revolute_axis_moment_is_drive_plus_joint_load_and_free_directions_carry
     moments, the cylinder's slide force and moment.  RSCR with rates, 60 steps;
     tolerance 1e-12 of the largest drive."""
     s, tr, _, _ = _sweep_case("spatial RSCR")
-    F = openimp.forces(tr)
+    F = openimp.forces_of(tr)
     tau = F.drive["A.theta"]
     tol = 1e-12 * np.max(np.abs(tau))
     k, q0 = s.jsprings["D"]
@@ -350,7 +350,7 @@ def test_reaction_frames():
     prismatic D of the slider-crank, whose two frame origins differ (the slider's at
     the pin C, the ground's on the slide line at x = 0); 1e-12 relative."""
     s, tr, _, _ = _sweep_case("slider-crank", n=20)
-    F = openimp.forces(tr)
+    F = openimp.forces_of(tr)
     J = s.model.joints["D"]
     ref = Ref(s, tr)
     A1 = ref.moved(J.body1) @ J.frame1
@@ -406,7 +406,7 @@ def test_drive_is_lagrange_of_one_dof(build):
     w, al = 2.5, -4.0
     tr = openimp.sweep(s.compile(), {"A": th}, rates={"A": w}, accels={"A": al})
     assert tr.complete, tr.message
-    F = openimp.forces(tr)
+    F = openimp.forces_of(tr)
     ref = Ref(s, tr)
     M = 2.0 * ref.kinetic() / w**2
     V = ref.potential()
@@ -466,7 +466,7 @@ def test_hooke_coupling_book_example_17_1():
     psi = psi0 + np.radians(np.arange(0.0, 360.0, 5.0))
     tr = openimp.sweep(sy, {"D": psi})
     assert tr.complete, tr.message
-    F = openimp.forces(tr)
+    F = openimp.forces_of(tr)
     want = math.cos(beta) / (1.0 - math.sin(beta) ** 2 * np.sin(psi) ** 2) * PA
     np.testing.assert_allclose(F.reaction("D")[:, 5], want, rtol=1e-10, atol=0)
     np.testing.assert_allclose(F.drive["D.theta"], want, rtol=1e-10, atol=0)
@@ -489,7 +489,7 @@ def test_energies_along_a_sweep():
     at every step of the RSCR and of the 3R arm with every load; 1e-12 relative."""
     for name in ("spatial RSCR", "3R arm"):
         s, tr, _, _ = _sweep_case(name, n=40)
-        F = openimp.forces(tr, reactions=False)
+        F = openimp.forces_of(tr, reactions=False)
         ref = Ref(s, tr)
         T, V = ref.kinetic(), ref.potential()
         np.testing.assert_allclose(F.kinetic, T, rtol=0, atol=1e-12 * np.max(T))
@@ -516,7 +516,7 @@ def test_mass_matrix_of_the_arm_from_its_kinetic_energy():
         ref = Ref(s, tr)
         vel.append({b: (ref.centre(b)[1], tr.velocity_screw(b)[:, 3:]) for b in s.mass})
         tr = openimp.sweep(sy, q, rates=zero, accels=unit)
-        F = openimp.forces(tr, reactions=False)
+        F = openimp.forces_of(tr, reactions=False)
         cols.append(np.stack([F.drive[f"{k}.theta"] for k in keys], axis=1))
     Ic = {b: Ref(s, tr).inertia(b) for b in s.mass}
     M = np.zeros((tr.nsteps, 3, 3))
@@ -565,7 +565,7 @@ def test_quasi_static_drive_is_the_gradient_of_the_potential():
     for s, drivers, j in cases:
         tr = openimp.sweep(s.compile(), drivers)
         assert tr.complete, tr.message
-        F = openimp.forces(tr, reactions=False)
+        F = openimp.forces_of(tr, reactions=False)
         np.testing.assert_allclose(F.potential, Ref(s, tr).potential(), rtol=0,
                                    atol=1e-12 * np.max(np.abs(F.potential)))
         tau = F.drive[f"{j}.theta"][2:-2]
@@ -629,7 +629,7 @@ def test_power_balance_along_a_motion_of_time(name):
         motion = {"A": Polynomial([0.3, 3.0, 4.0, -5.0])}
     tr = openimp.sweep(sy, motion=motion, times=times)
     assert tr.complete, tr.message
-    F = openimp.forces(tr, reactions=False)
+    F = openimp.forces_of(tr, reactions=False)
     want = _power_reference(s, tr, F)
     assert set(F.power) == set(want)
     scale = max(float(np.max(np.abs(v))) for v in want.values())
@@ -724,7 +724,7 @@ def test_a_failing_law_is_an_input_error_at_forces_time(add, words):
     add(m)
     tr = openimp.sweep(openimp.compile(m), {"A": np.linspace(0.0, 1.0, 6)}, rates={"A": 1.0})
     with pytest.raises(openimp.InputError) as exc:
-        openimp.forces(tr)
+        openimp.forces_of(tr)
     for w in words:
         assert w in str(exc.value), (w, str(exc.value))
 
@@ -739,7 +739,7 @@ def test_element_forces_from_the_lengths():
     from the point positions, damper tension c dl/dt with dl/dt = u . (v1 - v2) from
     the point velocities, force and torque magnitudes as given; 1e-12 relative."""
     s, tr, _, _ = _sweep_case("planar four-bar")
-    F = openimp.forces(tr, reactions=False)
+    F = openimp.forces_of(tr, reactions=False)
     ref = Ref(s, tr)
     (_, p1, p2, k, l0), = s.springs
     ln, rate, _ = ref.length(p1, p2)
@@ -771,7 +771,7 @@ def test_element_with_coincident_ends_is_skipped_with_a_message():
     th = np.radians(np.arange(0.0, 61.0, 5.0))
     w = 1.5
     tr = openimp.sweep(openimp.compile(m), {"A": th}, rates={"A": w}, accels={"A": 0.0})
-    F = openimp.forces(tr)
+    F = openimp.forces_of(tr)
     k = 6
     assert abs(th[k] - 30 * DEG) < 1e-15
     for name, kind in (("S", "spring"), ("K", "damper")):
@@ -829,7 +829,7 @@ def test_piecewise_laws_match_their_linear_pieces():
         s.model.add_spring("S", "P1", "G1", *spring[:2], law=spring[2])
         s.model.set_joint_spring("C", *jspring[:2], law=jspring[2])
         tr = openimp.sweep(s.compile(), {"A": th}, rates={"A": w}, accels={"A": al})
-        return s, tr, openimp.forces(tr)
+        return s, tr, openimp.forces_of(tr)
 
     s, tr, F = run((0.0, None, bump), (0.0, None, stop))
     ref = Ref(s, tr)
@@ -870,7 +870,7 @@ def test_laws_of_time_and_of_joint_variables():
     s.model.set_joint_force("B", law=lambda st: -0.7 * st.xd)
     times = np.arange(0.0, 0.5 + 5e-3, 1e-2)
     tr = openimp.sweep(s.compile(), motion={"A": Polynomial([0.3, 3.0, 4.0])}, times=times)
-    F = openimp.forces(tr)
+    F = openimp.forces_of(tr)
     np.testing.assert_allclose(F.element("T"), 3.0 * tr.variable("D"), rtol=1e-13)
     np.testing.assert_allclose(F.element("F"), 10.0 * np.sin(4 * times), rtol=0, atol=1e-13)
     wB = tr.qd[:, tr.system.var_index("B")]
@@ -905,7 +905,7 @@ def test_one_pass_balances_every_body_and_equals_two_passes(name):
             fres, mres = fres[:, :2], mres[:, 2:]
         assert np.max(np.abs(fres)) <= NE_TOL * sf, (b, np.max(np.abs(fres)) / sf)
         assert np.max(np.abs(mres)) <= NE_TOL * sm, (b, np.max(np.abs(mres)) / sm)
-    F2 = openimp.forces(tr)
+    F2 = openimp.forces_of(tr)
     for key, v in F2.drive.items():
         np.testing.assert_allclose(F1.drive[key], v, rtol=0, atol=1e-8 * np.abs(v).max())
     for j in sy.joints:
@@ -924,7 +924,7 @@ def test_one_pass_quasi_static_and_with_laws():
     sy = s.compile()
     th = np.linspace(0.1, 2.0, 25)
     F1 = openimp.forces(sy, {"A": th})
-    F2 = openimp.forces(openimp.sweep(sy, {"A": th}))
+    F2 = openimp.forces_of(openimp.sweep(sy, {"A": th}))
     np.testing.assert_allclose(F1.drive["A.theta"], F2.drive["A.theta"], rtol=0,
                                atol=1e-8 * np.abs(F2.drive["A.theta"]).max())
     assert np.all(F1.kinetic == 0.0)
@@ -932,7 +932,7 @@ def test_one_pass_quasi_static_and_with_laws():
     m.add_spring("LAWSPRING", *s.springs[0][1:3], law=lambda st: 3.0 * st.length ** 2)
     sy2 = openimp.compile(m)
     F3 = openimp.forces(sy2, {"A": th}, rates={"A": 1.0})
-    F4 = openimp.forces(openimp.sweep(sy2, {"A": th}, rates={"A": 1.0}))
+    F4 = openimp.forces_of(openimp.sweep(sy2, {"A": th}, rates={"A": 1.0}))
     np.testing.assert_allclose(F3.drive["A.theta"], F4.drive["A.theta"], rtol=1e-12)
     L = np.linalg.norm(F3.trajectory.point(s.springs[0][1])
                        - F3.trajectory.point(s.springs[0][2]), axis=1)
@@ -950,7 +950,7 @@ def test_open_chain_fully_driven_needs_no_sweep():
     q, qd, qdd = arm_motion(40)
     F1 = openimp.forces(sy, q, rates=qd, accels=qdd)
     tr = openimp.sweep(sy, q, rates=qd, accels=qdd)
-    F2 = openimp.forces(tr)
+    F2 = openimp.forces_of(tr)
     for key, v in F2.drive.items():
         np.testing.assert_allclose(F1.drive[key], v, rtol=0, atol=1e-12 * np.abs(v).max())
     for j in sy.joints:

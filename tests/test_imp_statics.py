@@ -756,3 +756,16 @@ def test_static_heading_json_has_the_free_coordinates(tmp_path) -> None:
     row = t.rows[0]
     assert row[t.columns.index("A 1")] == pytest.approx(47.15299306, abs=1e-6)
     assert int(row[t.columns.index("Search steps")]) == search_lines(echo)[0]
+
+
+@pytest.mark.parametrize("deck", ["counterbalanced_arm.imp", "toggle_clamp.imp",
+                                  "fourbar_spring.imp"])
+def test_runs_use_the_current_names(deck) -> None:
+    """The runners call the analyses by their current names: a static path, a static
+    search and a kinematic run with forces print no DeprecationWarning."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DeprecationWarning)
+        runs, _ = run_deck(EXAMPLES / deck)
+    assert all(r.ok for r in runs), [(r.failure, r.unsupported) for r in runs]

@@ -231,7 +231,7 @@ def test_euler_rodrigues_parameter_cannot_be_driven():
 
 
 def test_start_posture_of_wrong_length(fb_system):
-    input_error(lambda: openimp.sweep(fb_system, {"A": [0.0, 0.1]}, start=[0.0, 0.0]), "start")
+    input_error(lambda: openimp.sweep(fb_system, {"A": [0.0, 0.1]}, q=[0.0, 0.0]), "q must hold")
 
 
 def test_unknown_point_and_body_in_results(fb_system):

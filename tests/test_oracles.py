@@ -295,7 +295,7 @@ def test_joint_reactions_are_the_books_17_20(name):
     springs = [(*at(p1), *at(p2), k, l0) for _, p1, p2, k, l0 in s.springs]
     forces = [(*at(p), np.asarray(d, float) / np.linalg.norm(d), f)
               for _, p, f, d in s.forces]
-    F = openimp.forces(tr)
+    F = openimp.forces_of(tr)
     gen = [case.joints.index(g) for g in case.gen]
     ref = np.array([[book.reaction(h, c, E=E, kinds=case.kinds, L=case.L, P=case.P,
                                    gen=gen, T=T, Tdd=Tdd, J=case.J, psid=rates, g=s.gravity,

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from helpers.docs import blocks
+from helpers.docs import blocks, squash
 
 DOC = Path(__file__).parent.parent / "docs" / "python.md"
 
@@ -52,7 +52,7 @@ def coupler_point(theta: np.ndarray) -> np.ndarray:
 
 def test_python_docs_run_and_are_right(tmp_path, monkeypatch) -> None:
     code = blocks(DOC.read_text())
-    assert len(code) == 4, "docs/python.md: describe, sweep, plot, animate"
+    assert len(code) == 5, "docs/python.md: describe, sweep, plot, animate, vocabulary"
     monkeypatch.chdir(tmp_path)
     ns: dict = {"__name__": "docs_python"}
     for block in code:
@@ -80,3 +80,53 @@ def test_python_docs_run_and_are_right(tmp_path, monkeypatch) -> None:
                                 r"</script>", page, flags=re.S).group(1))
     assert data["steps"] == 181
     assert data["times"][90] == pytest.approx(0.5)
+    # the vocabulary block: a start posture as a mapping reaches the closed form
+    np.testing.assert_allclose(ns["half"].point("P"), exact[:46], rtol=0, atol=TOL)
+
+
+#: every analysis of the Python API: the vocabulary table has a row for each
+ANALYSES = ["sweep", "forces", "forces_of", "equilibrium", "equilibria", "linearize",
+            "modes", "modes_along", "simulate"]
+
+
+def test_one_vocabulary_table_lists_every_analysis() -> None:
+    """One table (section "One vocabulary") with a row naming each analysis, and the
+    decided names in it: q, state=, specified=, force_rtol, max_iter, force_error."""
+    import openimp
+
+    text = DOC.read_text()
+    section = text[text.index("## 8. One vocabulary"):]
+    rows = [r for r in section.splitlines() if r.startswith("| `")]
+    named = {n for r in rows for n in re.findall(r"`(\w+)", r.split("|")[1])}
+    assert named == set(ANALYSES), named ^ set(ANALYSES)
+    assert all(callable(getattr(openimp, n)) for n in ANALYSES)
+    head = squash(section.split("| analysis |")[1].splitlines()[0])
+    assert "start" in head and "`specified=`" in head and "progress(done, total)" in head
+    for word in ("`force_rtol`", "`max_iter`", "`force_error`", "`state=`",
+                 "`start` -> `q`", "`rtol` -> `force_rtol`", "`max_steps` -> `max_iter`"):
+        assert word in section, word
+
+
+def test_python_docs_equations_and_vibration_section(tmp_path, monkeypatch) -> None:
+    """docs/python.md section 6: its snippet runs on the four-bar of the first block with
+    the masses and gravity of section 5 (not its simulation), and the numbers of the two
+    code paths agree: linearize's M (the compiled linearization) is equations()' M (the
+    equations-of-motion stage) to 1e-12, and F = Q - c (11.10) to 1e-12."""
+    text = DOC.read_text()
+    five = text.split("## 5. Let it move")[1].split("## 6.")[0]
+    six = text.split("## 6. The equations of motion")[1].split("## 7.")[0]
+
+    def snippet(section: str) -> str:
+        return "\n".join(line[4:] for line in section.splitlines()
+                         if line.startswith("    ") and not line[4:].startswith("res"))
+
+    monkeypatch.chdir(tmp_path)
+    ns: dict = {"__name__": "docs_python"}
+    exec(compile(blocks(text)[0], str(DOC), "exec"), ns)
+    exec(compile(snippet(five), str(DOC), "exec"), ns)
+    exec(compile(snippet(six), str(DOC), "exec"), ns)
+    e, lin, md = ns["e"], ns["lin"], ns["md"]
+    assert e.coords == lin.coords and not e.specified.any() and md.count >= 1
+    np.testing.assert_allclose(lin.M, e.M, rtol=1e-12, atol=1e-12 * np.abs(e.M).max())
+    np.testing.assert_allclose(lin.F, e.Q - e.c, rtol=1e-12, atol=1e-12 * np.abs(e.Q).max())
+    assert e.singular == ""

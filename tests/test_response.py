@@ -748,7 +748,7 @@ def test_forces_on_the_released_fourbar(fb):
     spec, sy, _ = fb
     res = openimp.simulate(sy, 2.0, print_step=0.05, rtol=1e-10)
     assert res.complete, res.message
-    F = openimp.forces(res)
+    F = openimp.forces_of(res)
     scale = sum(m for m, _, _ in spec.mass.values()) * G * FBR["l2"]
     free = {n for row in res.fgc for n in row}
     assert free
@@ -769,7 +769,7 @@ def test_forces_on_the_driven_cart():
     res = openimp.simulate(sy, 3.0, print_step=0.1, q={"A": 0.6}, motion={"S": motion},
                            rtol=1e-10)
     assert res.complete, res.message
-    F = openimp.forces(res)
+    F = openimp.forces_of(res)
     ia = sy.var_index("A")
     th, w, a = res.q[:, ia], res.qd[:, ia], res.qdd[:, ia]
     xdd = motion(res.time)[2]
@@ -787,7 +787,7 @@ def test_forces_with_a_law_damper():
         m, k, damper_law=openimp.OneWayDamper(OWD["ext"], OWD["comp"])))
     res = openimp.simulate(sy, 3.0, print_step=0.05, q={"X": OWD["x0"]}, rtol=1e-10)
     assert res.complete, res.message
-    F = openimp.forces(res)
+    F = openimp.forces_of(res)
     assert np.abs(F.drive["X.s"]).max() <= 1e-10 * k * OWD["x0"]
 
 
@@ -994,10 +994,10 @@ def test_point_mass_has_no_inertia_warnings():
     ("smooth", 0.1, 1.0, 1.15),   # x + 0.75 x^2: the Richardson slope, not a one-sided one
 ])
 def test_law_slopes_on_one_side_of_a_kink(law, x0, direction, want):
-    """vibration._kinked_slopes (the book's law slopes): f = 3 max(x, 0) or x + 0.75 x^2
+    """laws.kinked_slopes (the book's law slopes): f = 3 max(x, 0) or x + 0.75 x^2
     sampled at x0 + (-2h, -h, h, 2h), h = 1e-3, against the exact slope of the side
     the point is on or moves to (1e-9; the smooth law's Richardson slope 1e-9)."""
-    from openimp.dynamics.vibration import _kinked_slopes
+    from openimp.dynamics.laws import kinked_slopes
 
     def f(x):
         x = np.asarray(x, float)
@@ -1006,7 +1006,7 @@ def test_law_slopes_on_one_side_of_a_kink(law, x0, direction, want):
     h = 1e-3
     P = f(x0 + h * np.array([-2.0, -1.0, 1.0, 2.0])).reshape(1, 4, 1)
     central = (np.array([1.0, -8.0, 8.0, -1.0]) @ P) / (12.0 * h)
-    got = _kinked_slopes(P, f(np.array([x0])), h, np.array([direction]), central)
+    got = kinked_slopes(P, f(np.array([x0])), h, np.array([direction]), central)
     assert got.shape == (1, 1)
     assert got[0, 0] == pytest.approx(want, abs=1e-9), got
 

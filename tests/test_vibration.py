@@ -28,6 +28,7 @@ import openimp
 from helpers.geometry import rssr_geometry, rssr_output
 from helpers.models import Rig, build_fivebar
 from openimp.dynamics.eom import equations
+from openimp.system import make_state
 
 G = 9.81
 
@@ -220,7 +221,7 @@ def gimbal(spin: float):
 
 def posture(system, drive: dict[str, float], start=None, hold_free=False) -> np.ndarray:
     """The posture closed (to 1e-13) with the joint variables of ``drive`` set."""
-    tr = openimp.sweep(system, {k: [v] for k, v in drive.items()}, start=start, tol=1e-13,
+    tr = openimp.sweep(system, {k: [v] for k, v in drive.items()}, q=start, tol=1e-13,
                        hold_free=hold_free)
     assert tr.complete, tr.message
     return np.array(tr.q[0])
@@ -244,15 +245,16 @@ def test_compound_pendulum_frequency():
     np.testing.assert_allclose(md.damping, [0.0], atol=1e-12)
     np.testing.assert_allclose(np.sort(md.eigenvalues.imag), [-w, w], rtol=1e-12)
     assert md.kind == ["oscillatory"] and not md.unstable.any()
-    # the same through a System and keyword arguments
-    np.testing.assert_allclose(openimp.modes(system).frequency, [w], rtol=1e-12)
+    # modes of a System (deprecated for modes(linearize(system))): the same, with a warning
+    with pytest.warns(DeprecationWarning, match="linearize"):
+        np.testing.assert_allclose(openimp.modes(system).frequency, [w], rtol=1e-12)
 
 
 def test_inverted_pendulum_unstable():
     """Standing rod: K = -m g L/2, eigenvalues +-sqrt(m g L/2 / I_pivot), real; the growing
     one is flagged unstable with a negative time constant -1/lambda.  1e-12: exact."""
     system, L, m = pendulum(inverted=True)
-    md = openimp.modes(system)
+    md = openimp.modes(openimp.linearize(system))
     lam = np.sqrt(m * G * L / 2 / (m * L**2 / 3))
     np.testing.assert_allclose(np.sort(md.eigenvalues.real), [-lam, lam], rtol=1e-12)
     np.testing.assert_allclose(md.eigenvalues.imag, 0.0, atol=1e-12)
@@ -284,7 +286,7 @@ def test_overdamped_time_constants():
     """c > 2 sqrt(k m): two real eigenvalues, the roots of m s^2 + c s + k; time
     constants -1/root.  1e-12: exact."""
     m, k, c = 2.0, 50.0, 40.0
-    md = openimp.modes(smd(m, k, c))
+    md = openimp.modes(openimp.linearize(smd(m, k, c)))
     roots = np.sort(np.roots([m, c, k]).real)
     np.testing.assert_allclose(np.sort(md.eigenvalues.real), roots, rtol=1e-12)
     np.testing.assert_allclose(md.eigenvalues.imag, 0.0, atol=1e-12)
@@ -464,7 +466,7 @@ def damper_term(system):
         def ldot(rates):
             tr = openimp.sweep(system, {c: [q[system.var_index(c)]] for c in coords},
                                rates={c: [r] for c, r in zip(coords, rates, strict=True)},
-                               start=q, tol=1e-13)
+                               q=q, tol=1e-13)
             d = tr.point("R")[0] - tr.point("H")[0]
             return d @ (tr.point_velocity("R")[0] - tr.point_velocity("H")[0]) / np.linalg.norm(d)
 
@@ -738,17 +740,17 @@ def test_bad_frequencies():
 
 
 def test_state_and_modes_along_agree_with_linearize():
-    """linearize of a State (internal units, its sgc, rates, accelerations and time) is
-    linearize with keywords; modes_along over postures and rates is modes of linearize at
+    """linearize of a State (state=: internal units, its sgc, rates, accelerations and
+    time) is linearize with keywords; modes_along over postures and rates is modes of linearize at
     each (the same numbers: 1e-12 relative, one code path compiled in a loop)."""
     system = fivebar()
     q = posture(system, {"A": 0.4, "E": -0.2})
     lin = openimp.linearize(system, q, {"A": 1.5}, {"A": -0.7}, specified=["A"], t=0.25)
-    S = openimp.system.make_state(system, system.to_internal(q), 0.25)
+    S = make_state(system, system.to_internal(q), 0.25)
     a = system.var_index("A")
     S.sgc[a] = True
     S.qd[a], S.qdd[a] = 1.5, -0.7  # an angle: internal units are model units
-    lin2 = openimp.linearize(system, S)
+    lin2 = openimp.linearize(system, state=S)
     assert lin2.coords == lin.coords
     for name in ("M", "D", "K", "F"):
         np.testing.assert_allclose(getattr(lin2, name), getattr(lin, name), rtol=1e-12,
@@ -817,12 +819,54 @@ def test_stiff_chain_transfer_function_coefficients():
 def test_neutral_mode_is_neutral_not_unstable():
     """The coupler's passive spin between the two balls of the RSSR has no stiffness; its
     K_FF is round-off (1e-14), which must give a neutral mode, not an unstable pair or a
-    1e-7 rad/s oscillation."""
+    1e-7 rad/s oscillation; listed once (issue 24: it was listed twice, frequency NaN),
+    frequency 0, though its eigenvalues are the double zero."""
     system = rssr(universal=False)
     for a in (0.1, 0.3, 0.5):
         q = posture(system, {"A": a}, hold_free=True)
         md = openimp.modes(openimp.linearize(system, q, specified=("A",)))
-        assert md.kind == ["neutral", "neutral"] and not md.unstable.any(), md.to_table()
+        assert md.kind == ["neutral"] and not md.unstable.any(), md.to_table()
+        assert md.frequency[0] == 0.0 and md.eigenvalues.size == 2
+
+
+def _rotors(k: float, c: float = 0.0) -> openimp.System:
+    """Two coaxial rotors: A (BASE -> R1, I1 = 2) free, B (R1 -> R2, I2 = 0.5) with a
+    torsion spring k and a damper c; no gravity."""
+    m = openimp.Model("rotors")
+    m.add_joint("revolute", "A", "BASE", "R1", origin=(0, 0, 0))
+    m.add_joint("revolute", "B", "R1", "R2", origin=(0, 0, 0))
+    m.add_mass("R1", 1.0, (0, 0, 0), np.diag([1.0, 1.0, 2.0]))
+    m.add_mass("R2", 1.0, (0, 0, 0), np.diag([1.0, 1.0, 0.5]))
+    if k:
+        m.set_joint_spring("B", k, free=0.0)
+    if c:
+        m.set_joint_damper("B", c)
+    return openimp.compile(m)
+
+
+def test_each_neutral_freedom_is_listed_once_with_frequency_zero():
+    """A free rotor pair: with no spring both freedoms are neutral (four zero eigenvalues,
+    two modes, shapes spanning both coordinates); with a spring k between them the
+    rigid rotation is one neutral mode and the relative one oscillates at
+    sqrt(k (1/I1 + 1/I2)) (closed form, 1e-12); with a damper as well still one
+    neutral mode, the rest the roots of the relative motion's I s^2 + c s + k."""
+    I1, I2 = 2.0, 0.5
+    md = openimp.modes(openimp.linearize(_rotors(0.0)))
+    assert md.kind == ["neutral", "neutral"] and md.eigenvalues.size == 4
+    assert np.all(md.frequency == 0.0) and np.all(np.isinf(md.time_constant))
+    assert np.linalg.matrix_rank(md.shapes, tol=1e-9) == 2
+    md = openimp.modes(openimp.linearize(_rotors(8.0)))
+    assert md.kind == ["neutral", "oscillatory"], md.to_table()
+    assert md.frequency[0] == 0.0
+    # the neutral shape is the rigid rotation: A moves, B (relative) does not
+    np.testing.assert_allclose(md.shapes[:, 0], [1.0, 0.0], atol=1e-12)
+    assert md.frequency[1] == pytest.approx(np.sqrt(8.0 * (1 / I1 + 1 / I2)), rel=1e-12)
+    md = openimp.modes(openimp.linearize(_rotors(8.0, 0.3)))
+    Ir = I1 * I2 / (I1 + I2)  # the relative motion's inertia
+    lam = np.roots([Ir, 0.3, 8.0])
+    assert md.kind == ["neutral", "oscillatory"], md.to_table()
+    assert md.frequency[1] == pytest.approx(abs(lam[0]), rel=1e-12)
+    assert md.damping[1] == pytest.approx(-lam[0].real / abs(lam[0]), rel=1e-10)
 
 
 def test_light_part_on_a_heavy_carriage_is_not_massless():
@@ -834,7 +878,7 @@ def test_light_part_on_a_heavy_carriage_is_not_massless():
     md.add_mass("B", 1e4, (0, 0, 0), np.diag([100.0] * 3))
     md.add_mass("ROT", 1e-3, (0.1, 0, 0), np.diag([1e-8] * 3))
     md.set_joint_spring("R", 1e-3, free=0.0)
-    got = openimp.modes(openimp.compile(md), specified=["X"]).frequency
+    got = openimp.modes(openimp.linearize(openimp.compile(md), specified=["X"])).frequency
     np.testing.assert_allclose(got, [np.sqrt(1e-3 / 1e-8)], rtol=1e-9)
 
 
@@ -885,3 +929,58 @@ def test_more_bad_inputs(call, match):
     lin = openimp.linearize(s)
     with pytest.raises(openimp.InputError, match=match):
         call(s, lin, openimp.modes(lin))
+
+
+def _spatial_double_pendulum() -> openimp.System:
+    """A about z, then B about x (axes skew): a spatial double pendulum, no loops, so its
+    joint variables are its generalized coordinates; gravity not along either axis."""
+    m = openimp.Model("spatial double pendulum")
+    m.add_joint("revolute", "A", "BASE", "ARM1", origin=(0, 0, 0), axis=(0, 0, 1))
+    m.add_joint("revolute", "B", "ARM1", "ARM2", origin=(0, -1, 0), axis=(1, 0, 0))
+    m.add_mass("ARM1", 2.0, (0.1, -0.5, 0), np.diag([0.2, 0.05, 0.2]))
+    m.add_mass("ARM2", 1.5, (0, -1.6, 0.2), np.diag([0.1, 0.03, 0.12]))
+    m.set_gravity((0.5, -9.81, -3.0))
+    return openimp.compile(m)
+
+
+def test_moving_set_point_takes_the_accelerations_of_the_motion():
+    """Issue 24 (7c): at a moving state that is not an equilibrium, linearize takes the
+    accelerations of the equations of motion (psi''* from M psi'' = Q - c), and its K and
+    D are the derivatives of the residual r = M(psi) psi'' + c(psi, psi') - Q(psi, psi')
+    at (psi*, psi'*, psi''*): central differences of equations() (h = 1e-5, exact to
+    ~1e-9) agree to 1e-6.  With the accelerations given as 0 (the former default) K
+    misses d(M)/dpsi psi''* and is off by far more."""
+    system = _spatial_double_pendulum()
+    q = np.array([0.4, 0.6])
+    rates = {"A": 1.3, "B": -0.7}
+    lin = openimp.linearize(system, q, rates)
+    assert lin.coords == ["A.theta", "B.theta"] and not lin.specified.any()
+    e = equations(system, q, rates)
+    a_ref = np.linalg.solve(e.M, e.Q - e.c)
+    np.testing.assert_allclose(lin.accels, a_ref, rtol=1e-12)
+    assert np.abs(a_ref).min() > 0.1  # not an equilibrium
+
+    def r(qq, u, a):
+        ee = equations(system, qq, dict(zip("AB", u, strict=True)))
+        return ee.M @ a + ee.c - ee.Q
+
+    h = 1e-5
+    u0 = np.array([1.3, -0.7])
+    K = np.column_stack([(r(q + h * d, u0, a_ref) - r(q - h * d, u0, a_ref)) / (2 * h)
+                         for d in np.eye(2)])
+    D = np.column_stack([(r(q, u0 + h * d, a_ref) - r(q, u0 - h * d, a_ref)) / (2 * h)
+                         for d in np.eye(2)])
+    np.testing.assert_allclose(lin.K, K, rtol=0, atol=1e-6 * np.abs(K).max())
+    np.testing.assert_allclose(lin.D, D, rtol=0, atol=1e-6 * np.abs(D).max())
+    old = openimp.linearize(system, q, rates, {"A": 0.0, "B": 0.0})
+    np.testing.assert_array_equal(old.accels, 0.0)
+    assert np.abs(old.K - K).max() > 1e-2 * np.abs(K).max()
+    # at rest the accelerations stay 0 unless given: K is the book's stiffness at rest
+    still = openimp.linearize(system, q)
+    np.testing.assert_array_equal(still.accels, 0.0)
+    # the same through a State (state=), and a State as q with a DeprecationWarning
+    S = make_state(system, system.to_internal(q))
+    S.qd[:] = u0
+    np.testing.assert_array_equal(openimp.linearize(system, state=S).K, lin.K)
+    with pytest.warns(DeprecationWarning, match="state="):
+        np.testing.assert_array_equal(openimp.linearize(system, S).K, lin.K)

@@ -10,7 +10,7 @@ compiled system as in Pinocchio and MuJoCo::
     ...
     system = openimp.compile(m)
     res = openimp.sweep(system, {"A": np.radians(np.arange(361))})
-    f = openimp.forces(res)          # drive torques, joint reactions (with masses, loads)
+    f = openimp.forces_of(res)       # drive torques, joint reactions (with masses, loads)
 
 (``docs/python.md`` goes on to a plot and an animation.)
 """
@@ -22,9 +22,11 @@ from openimp.dynamics import (
     LiftOff,
     LoadState,
     OneWayDamper,
+    equations,
     equilibria,
     equilibrium,
     forces,
+    forces_of,
     frequency_response,
     linearize,
     mode_motion,
@@ -40,6 +42,7 @@ from openimp.model import Model
 from openimp.results import (
     CoordinateSwitch,
     EnergyAudit,
+    EquationsOfMotion,
     Equilibrium,
     EquilibriumPath,
     Event,
@@ -49,7 +52,9 @@ from openimp.results import (
     Linearization,
     ModeMap,
     Modes,
+    SearchStatus,
     StateSpace,
+    StepKind,
     Trajectory,
     TransferFunction,
 )
@@ -73,6 +78,7 @@ __all__ = [
     "BumpStop",
     "CoordinateSwitch",
     "EnergyAudit",
+    "EquationsOfMotion",
     "Equilibrium",
     "EquilibriumPath",
     "Event",
@@ -88,16 +94,20 @@ __all__ = [
     "Modes",
     "OneWayDamper",
     "OpenIMPError",
+    "SearchStatus",
     "State",
     "StateSpace",
+    "StepKind",
     "System",
     "Trajectory",
     "TransferFunction",
     "__version__",
     "compile",
+    "equations",
     "equilibria",
     "equilibrium",
     "forces",
+    "forces_of",
     "frequency_response",
     "linearize",
     "load",

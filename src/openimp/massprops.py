@@ -40,6 +40,7 @@ __all__ = [
     "check_inertia",
     "cylinder",
     "disc",
+    "mass_value",
     "pseudo_inertia",
     "rod",
     "sphere",
@@ -68,6 +69,15 @@ def _array(value: Any, shape: tuple[int, ...], what: str) -> np.ndarray:
     if not np.all(np.isfinite(a)):
         raise InputError(f"{what} must be finite numbers, got {a.tolist()}")
     return a
+
+
+def mass_value(value: Any, what: str = "the mass") -> float:
+    """``value`` as a mass: a finite float >= 0, or InputError naming ``what``.  The one
+    refusal of a negative mass (:func:`pseudo_inertia`, the IMP statement DATA MASS)."""
+    m = _scalar(value, what)
+    if m < 0.0:
+        raise InputError(f"{what} must not be negative (>= 0), got {m:g}")
+    return m
 
 
 def _scalar(value: Any, what: str) -> float:
@@ -175,9 +185,7 @@ def pseudo_inertia(
         InputError: non-finite numbers, negative mass, wrong shapes, a non-symmetric
             tensor, ``axes`` not a rotation, a bad ``about`` / ``origin``.
     """
-    m = _scalar(mass, "the mass")
-    if m < 0.0:
-        raise InputError(f"the mass must be >= 0, got {m!r}")
+    m = mass_value(mass)
     c = _array(center, (3,), "the centre of mass")
     if about == "center":
         if origin is not None:

@@ -15,11 +15,12 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
+from enum import IntEnum
 from typing import Any
 
 import numpy as np
 
-from openimp.errors import InputError
+from openimp.errors import AnalysisError, InputError
 
 #: tracker(Q, QD, QDD, bodies, points) -> (T, p, V, A) in model units (see openimp.kinematics.track)
 Tracker = Callable[..., Any]
@@ -861,6 +862,60 @@ class Run:
 
 
 # =============================================================================
+# Equations of motion at one state (book ch 10)
+# =============================================================================
+@dataclass
+class EquationsOfMotion:
+    """M psi'' + c = Q (10.15) at one state, of :func:`openimp.equations`, in model units
+    (forces, moments per radian, masses as given) over the generalized coordinates
+    ``coords`` (f names; ``specified`` (f,) marks the SGCs, the rest are FGCs): ``M``
+    (f, f), ``c`` (f,) the velocity-product terms, ``Q`` (f,) the applied generalized
+    forces.  ``kinetic``, ``potential``: the energies.  ``singular``: "" or the message
+    that names what moves without mass when M_FF is singular (the test of every
+    analysis, :data:`openimp.dynamics.eom.SINGULAR_MASS`)."""
+
+    coords: list[str]
+    specified: np.ndarray
+    M: np.ndarray
+    c: np.ndarray
+    Q: np.ndarray
+    kinetic: float
+    potential: float
+    singular: str = ""
+
+    def free_accelerations(self, specified_accels: Any = None) -> np.ndarray:
+        """psi''_F (nF,) from M_FF psi''_F = Q_F - c_F - M_FS psi''_S (10.15, 11.13);
+        ``specified_accels`` (nS,): psi''_S (default 0).  Raises AnalysisError when
+        M_FF is singular."""
+        F, Sg = ~self.specified, self.specified
+        a_s = np.zeros(int(Sg.sum())) if specified_accels is None else np.asarray(
+            specified_accels, float)
+        if a_s.shape != (int(Sg.sum()),):
+            raise InputError(f"free_accelerations: give {int(Sg.sum())} accelerations of "
+                             f"the specified coordinates, got shape {a_s.shape}")
+        if self.singular:
+            raise AnalysisError(self.singular)
+        rhs = self.Q[F] - self.c[F] - self.M[np.ix_(F, Sg)] @ a_s
+        MFF = self.M[np.ix_(F, F)]
+        return np.linalg.solve(MFF, rhs) if MFF.size else np.zeros(0)
+
+    def drive(self, accels: Any) -> np.ndarray:
+        """Generalized forces (f,) the coordinates need for accelerations ``accels``
+        (f,; all coordinates): M psi'' + c - Q (11.14)."""
+        return self.M @ np.asarray(accels, float) + self.c - self.Q
+
+    def to_table(self) -> dict[str, Any]:
+        """Columns: coordinate, specified, the rows of M by column coordinate, c and Q."""
+        cols: dict[str, Any] = {"coordinate": list(self.coords),
+                                "specified": self.specified.copy()}
+        for j, name in enumerate(self.coords):
+            cols[f"M[{name}]"] = self.M[:, j].copy()
+        cols["c"] = self.c.copy()
+        cols["Q"] = self.Q.copy()
+        return cols
+
+
+# =============================================================================
 # Linearized equations, modes and frequency response (book ch 11, 13)
 # =============================================================================
 @dataclass
@@ -949,7 +1004,10 @@ class Modes:
     rad/s, ``damping`` ratio -Re lambda / |lambda|, ``damped`` Im lambda); a
     real eigenvalue is one non-oscillatory mode (``time_constant`` -1/lambda
     in s, negative when it grows; ``frequency`` and ``damping`` NaN).
-    ``kind``: "oscillatory", "overdamped" or "neutral" (lambda = 0);
+    ``kind``: "oscillatory", "overdamped" or "neutral" (lambda = 0: listed once
+    per freedom that has no restoring load, with ``frequency`` 0, ``damping``
+    NaN and ``time_constant`` infinite, though a freedom with no damping either
+    is a double zero of ``eigenvalues``);
     ``unstable``: Re lambda > 0.  ``shapes`` (nf, modes): the FGC amplitudes
     (complex, largest component 1); ``joint_shapes`` (nq, modes): every joint
     variable (phi' of the FGCs times the shape, model units).
@@ -1142,6 +1200,34 @@ class ModeMap:
         return cols
 
 
+class SearchStatus(IntEnum):
+    """How an equilibrium search ended (the codes of the compiled search,
+    :mod:`openimp.dynamics.statics`); ``str()`` gives the words of
+    :attr:`Equilibrium.status`."""
+
+    BALANCED = 1  #: every generalized force on the FGCs within the tolerance
+    NO_FREE = 2  #: every freedom is specified: only the holding forces are computed
+    CAPPED = 3  #: the cap on search iterations was reached (``max_iter``)
+    FAILED = 4  #: the loops could not be closed, or the loads did work against every step
+
+    def __str__(self) -> str:
+        return {1: "balanced", 2: "no free coordinate", 3: "step cap", 4: "failed"}[self.value]
+
+
+class StepKind(IntEnum):
+    """The kind of one step of an equilibrium search (the compiled codes); ``str()`` gives
+    the word of :attr:`Equilibrium.history`."""
+
+    NEWTON = 0  #: a Newton step (12.3, 12.4)
+    DESCENT = 1  #: along the load, steepest descent (12.9)
+    MODIFIED = 2  #: Newton with every eigenvalue of an indefinite K_FF by its magnitude
+    NEUTRAL = 3  #: a neutral freedom moved along its reduced load (12.6 b)
+    ESCAPE = 4  #: leaving an unstable equilibrium along its mode of instability
+
+    def __str__(self) -> str:
+        return self.name.lower()
+
+
 @dataclass
 class Equilibrium:
     """A static equilibrium (book ch 12) and how the search reached it, model units.
@@ -1149,7 +1235,8 @@ class Equilibrium:
     ``q`` (nq,): the posture; ``coords`` the generalized coordinates there and
     ``specified`` (f,) which are SGCs (held) rather than FGCs (searched);
     ``converged``, ``status`` (``"balanced"``, ``"step cap"``, ``"no free
-    coordinate"``, ``"failed"``), ``steps`` (search steps), ``evaluations``
+    coordinate"``, ``"failed"``; ``code``: the same as a :class:`SearchStatus`),
+    ``steps`` (search steps), ``evaluations``
     (residual evaluations, stiffness ones included); ``residual`` (f,) the
     generalized force left on every coordinate (12.1; on the FGCs the
     unbalance, at most ``force_tol`` when converged; on the SGCs minus the
@@ -1189,6 +1276,11 @@ class Equilibrium:
     messages: list[str] = field(default_factory=list)
     t: float = 0.0
     forces: Any = None
+
+    @property
+    def code(self) -> SearchStatus:
+        """:attr:`status` as a :class:`SearchStatus` (prints by name: ``CAPPED``)."""
+        return next(c for c in SearchStatus if str(c) == self.status)
 
     @property
     def free(self) -> list[str]:

@@ -11,17 +11,23 @@ linearisation, time response) call:
 * :mod:`~openimp.dynamics.inverse`: driving forces (11.14) and joint
   reactions by fictitious displacements (ch 17) along a motion;
 * :mod:`~openimp.dynamics.eom`: the equations of motion at one state,
-  M(psi) psi'' + c(psi, psi') = Q(psi, psi', t), with the FGC/SGC partition;
-* :mod:`~openimp.dynamics.laws`: load laws (callables) evaluated per step;
+  M(psi) psi'' + c(psi, psi') = Q(psi, psi', t), with the FGC/SGC partition
+  (:func:`equations`), and the one test of a singular mass matrix;
+* :mod:`~openimp.dynamics.laws`: load laws (callables) evaluated per step, and
+  their derivatives for the linearized equations;
 * :mod:`~openimp.dynamics.linear`: the linearized equations about a set point
   (ch 11), compiled;
-* :mod:`~openimp.dynamics.analysis`: :func:`forces`, the Python entry;
+* :mod:`~openimp.dynamics.analysis`: :func:`forces` (a motion solved there) and
+  :func:`forces_of` (a solved one), the Python entries;
 * :mod:`~openimp.dynamics.statics`, :mod:`~openimp.dynamics.equilibrium`: the
   static residual and stiffness (compiled) and :func:`equilibrium`,
   :func:`equilibria` (ch 12);
-* :mod:`~openimp.dynamics.vibration`: :func:`linearize`, :func:`modes`,
+* :mod:`~openimp.dynamics.linearize`: :func:`linearize` (ch 11);
+  :mod:`~openimp.dynamics.modes`: :func:`modes`, :func:`modes_along`,
+  :func:`mode_motion` (ch 13); :mod:`~openimp.dynamics.frequency`:
   :func:`transfer_function`, :func:`frequency_response`, :func:`state_space`
-  (ch 11, 13);
+  (13.18-13.21); :mod:`~openimp.dynamics.arguments`: the argument checks they
+  share;
 * :mod:`~openimp.dynamics.stepping`: the one compiled time step (Dormand-Prince
   and the book's exponential step), :mod:`~openimp.dynamics.hooks` the Python
   callables it calls from inside; :mod:`~openimp.dynamics.response`:
@@ -30,21 +36,17 @@ linearisation, time response) call:
   (:mod:`~openimp.dynamics.outputs`) and events (:mod:`~openimp.dynamics.events`).
 """
 
-from openimp.dynamics.analysis import forces
+from openimp.dynamics.analysis import forces, forces_of
+from openimp.dynamics.eom import equations
 from openimp.dynamics.equilibrium import equilibria, equilibrium
+from openimp.dynamics.frequency import frequency_response, state_space, transfer_function
 from openimp.dynamics.laws import BumpStop, LiftOff, LoadState, OneWayDamper
+from openimp.dynamics.linearize import linearize
+from openimp.dynamics.modes import mode_motion, modes, modes_along
 from openimp.dynamics.response import simulate
-from openimp.dynamics.vibration import (
-    frequency_response,
-    linearize,
-    mode_motion,
-    modes,
-    modes_along,
-    state_space,
-    transfer_function,
-)
 
 __all__ = ["BumpStop", "LiftOff", "LoadState", "OneWayDamper",
-           "equilibria", "equilibrium", "forces", "frequency_response",
+           "equations", "equilibria", "equilibrium", "forces", "forces_of",
+           "frequency_response",
            "linearize", "mode_motion", "modes", "modes_along", "simulate",
            "state_space", "transfer_function"]

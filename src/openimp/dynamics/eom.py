@@ -13,20 +13,22 @@ ones, FGC, that the elimination leaves), with
   dampers and applied loads (10.12 with its sign turned, 10.13).
 
 :func:`eom` is the compiled stage the later analyses (equilibrium,
-linearisation, time response) call; :func:`equations` the Python entry.
+linearisation, time response) call; :func:`equations` the Python entry, whose result is an
+:class:`~openimp.results.EquationsOfMotion`.
 Partitioned [F | S] (section 5.6 of the digest), the F rows give the free
 accelerations for given SGC accelerations and the S rows the drive forces
-(11.14): :meth:`EquationsOfMotion.free_accelerations`, :meth:`~EquationsOfMotion.drive`.
+(11.14).  :data:`SINGULAR_MASS` and :func:`mass_check` are the one test of a singular
+mass matrix and its message.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from openimp._jit import njit
+from openimp.dynamics.arguments import coordinate_names, floats, per_coordinate, posture
 from openimp.dynamics.inertia import body_inertias, inertia_wrenches, mass_matrix
 from openimp.dynamics.laws import law_values_at
 from openimp.dynamics.loads import applied_loads
@@ -34,7 +36,9 @@ from openimp.errors import AnalysisError, InputError
 from openimp.kinematics.elimination import derivatives, eliminate, free_columns, jacobian
 from openimp.kinematics.position import position
 from openimp.kinematics.rates import accelerations, body_operators, velocity, velocity_product
+from openimp.results import EquationsOfMotion
 from openimp.system import (
+    State,
     System,
     data_views,
     dyn_data_views,
@@ -147,59 +151,136 @@ def eom(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | 
     return nf, rank, ke, pe
 
 
-@dataclass
-class EquationsOfMotion:
-    """M psi'' + c = Q at one state (model units: forces, moments per radian, masses as
-    given), over the generalized coordinates ``coords`` (names; ``specified`` marks
-    the SGCs, the rest are FGCs).  ``kinetic``, ``potential``: the energies."""
-
-    coords: list[str]
-    specified: np.ndarray
-    M: np.ndarray
-    c: np.ndarray
-    Q: np.ndarray
-    kinetic: float
-    potential: float
-
-    def free_accelerations(self, specified_accels: np.ndarray | None = None) -> np.ndarray:
-        """psi''_F from M_FF psi''_F = Q_F - c_F - M_FS psi''_S (10.15, 11.13)."""
-        F, Sg = ~self.specified, self.specified
-        a_s = np.zeros(int(Sg.sum())) if specified_accels is None else np.asarray(
-            specified_accels, float)
-        rhs = self.Q[F] - self.c[F] - self.M[np.ix_(F, Sg)] @ a_s
-        MFF = self.M[np.ix_(F, F)]
-        if MFF.size and np.linalg.cond(MFF) > 1e12:
-            raise AnalysisError("the mass matrix of the free coordinates is singular: a "
-                                "massless part can move alone")
-        return np.linalg.solve(MFF, rhs) if MFF.size else np.zeros(0)
-
-    def drive(self, accels: np.ndarray) -> np.ndarray:
-        """Generalized forces the coordinates need for accelerations ``accels`` (all
-        coordinates): M psi'' + c - Q (11.14)."""
-        return self.M @ np.asarray(accels, float) + self.c - self.Q
+# ----------------------------------------------------------------------------- mass
+#: M_FF is singular when its smallest eigenvalue is at most SINGULAR_MASS times its scale:
+#: the larger of its largest diagonal entry and the model's mass (:func:`mass_floor`).
+#: The one test of every analysis that solves with M_FF (modes, transfer functions, the
+#: frequency map, equations().free_accelerations, the time response's diagnosis).  The
+#: time step's compiled Cholesky solve keeps its own guard, a pivot below ``mass_tol``
+#: (IMP's ZERO (INERTIA), 1e-5 by default) times the same scale: every pivot is at least
+#: the smallest eigenvalue, so that guard refuses only matrices whose smallest
+#: eigenvalue is below 1e-5 of the scale (it is IMP's looser accuracy limit, a user
+#: option), and a matrix singular by this test has a round-off pivot and stops there too;
+#: simulate() then names what moves without mass by this test (:func:`massless`).
+SINGULAR_MASS = 1e-14
 
 
-def equations(system: System, q: Any = None, rates: Any = None, *,
+def mass_floor(system: System) -> float:
+    """The model's mass times min(1, L^2), model units: what an M_FF entry of round-off
+    size is measured against (a 1 x 1 M_FF of round-off size is as singular as a zero
+    one; the SGCs' block is not used, which a heavy carriage would make dwarf a light
+    part that does move)."""
+    return float(system.Y.Jb[:, 3, 3].sum()) * min(1.0, system.length_scale ** 2)
+
+
+def singular_masses(MFF: np.ndarray, floor: float) -> np.ndarray:
+    """Where M_FF (..., n, n; model units) is singular by the test of
+    :data:`SINGULAR_MASS`: a bool (...,), every matrix at once."""
+    low = np.linalg.eigvalsh(0.5 * (MFF + np.swapaxes(MFF, -1, -2)))[..., 0]
+    top = np.abs(np.diagonal(MFF, axis1=-2, axis2=-1)).max(axis=-1, initial=0.0)
+    return low <= SINGULAR_MASS * np.maximum(np.maximum(top, floor), 1e-300)
+
+
+def null_motion(MFF: np.ndarray, floor: float) -> np.ndarray | None:
+    """None when M_FF (n, n; model units) is regular by the test of
+    :data:`SINGULAR_MASS`, else the eigenvector (n,) of its smallest eigenvalue: a
+    motion of the free coordinates without kinetic energy.  A Cholesky factor whose
+    smallest pivot is clear of the limit answers first (the eigen-solution costs more
+    than the rest of a small modes() call)."""
+    if MFF.size == 0:
+        return None
+    d = MFF.diagonal().tolist()
+    limit = SINGULAR_MASS * max(max(abs(x) for x in d), floor, 1e-300)
+    if len(d) == 1:
+        if d[0] > limit:
+            return None
+    else:
+        try:
+            L = np.linalg.cholesky(MFF)
+            if min(L.diagonal().tolist()) ** 2 > limit:
+                return None
+        except np.linalg.LinAlgError:
+            pass
+    lam, vec = np.linalg.eigh(0.5 * (MFF + MFF.T))
+    if lam[0] > limit:
+        return None
+    return vec[:, 0]
+
+
+def massless_message(coords: list[str], bodies: np.ndarray, body_names: Any,
+                     v: np.ndarray) -> str:
+    """The message of a singular M_FF: the free coordinates ``coords`` (n names) that
+    move together in the massless motion ``v`` (n,) (:func:`null_motion`) and the bodies
+    that move with them, whose twists sum_j W_{b,j} v_j are not zero (``bodies``
+    (nb, n, 6) the screws of W per unit of each free coordinate, ``body_names`` (nb,))."""
+    moving = [coords[i] for i in np.flatnonzero(np.abs(v) > 1e-6 * np.max(np.abs(v)))]
+    tw = np.abs(np.einsum("bjk,j->bk", bodies, v)).max(axis=1, initial=0.0)
+    top = float(tw.max()) if tw.size else 0.0
+    names = [body_names[b] for b in np.flatnonzero(tw > 1e-9 * max(top, 1e-300))]
+    return ("the mass matrix of the free coordinates is singular at this posture: moving "
+            + ", ".join(moving) + " together moves "
+            + (("bodies " + ", ".join(names)) if names else "no body") + " without "
+            "kinetic energy (no mass or inertia there); give those bodies mass and inertia "
+            "(Model.add_mass, DATA MASS / DATA INERTIA) or specify the coordinate")
+
+
+def mass_check(system: System, MFF: np.ndarray, coords: list[str], bodies: np.ndarray
+               ) -> str:
+    """"" when M_FF (n, n; model units) of the free coordinates ``coords`` is regular,
+    else the message that names what moves without mass (:func:`massless_message`;
+    ``bodies`` (nb, n, 6): the screws of W per unit of each free coordinate)."""
+    v = null_motion(MFF, mass_floor(system))
+    return "" if v is None else massless_message(coords, bodies, system.bodies, v)
+
+
+def massless(system: System, state: Any) -> str:
+    """What moves without kinetic energy at the assembled ``state`` (a
+    :class:`~openimp.system.State`, its SGCs locked), by the test of every analysis
+    (:func:`mass_check`), or "" when M_FF is regular there."""
+    try:
+        return equations(system, state=state).singular
+    except (InputError, AnalysisError):
+        return ""
+
+
+# ----------------------------------------------------------------------------- entry
+def equations(system: System, q: Any = None, rates: Any = None, *, state: Any = None,
               specified: Any = (), t: float = 0.0, pivot_tol: float = 1e-10
               ) -> EquationsOfMotion:
-    """The equations of motion of ``system`` at joint variables ``q`` (model units,
-    default the modeling posture; an assembled posture) with generalized rates.
+    """The equations of motion M psi'' + c = Q (10.15) of ``system`` at one state.
 
-    ``specified``: the SGCs (joint names or ``"joint.var"``); the free
-    coordinates are the ones the elimination leaves.  ``rates``: mapping
-    coordinate -> rate (model units per second; default at rest).
+    ``q``: joint variables (nq,) in model units or a mapping of joint or
+    ``"joint.var"`` to values (default the modeling posture; an assembled
+    posture); ``rates``: mapping coordinate -> rate (model units per second;
+    default at rest); ``specified``: the SGCs (joint names or ``"joint.var"``),
+    the free coordinates are the ones the elimination leaves; ``t``: the time
+    (load laws read it).  ``state``: a :class:`~openimp.system.State` instead
+    of ``q``, ``rates`` and ``t`` (internal units: its posture, time, SGCs and
+    the rates of its generalized coordinates).  Returns an
+    :class:`~openimp.results.EquationsOfMotion` in model units; its
+    ``singular`` says what moves without mass when M_FF is singular
+    (:data:`SINGULAR_MASS`).
     """
+    if not isinstance(system, System):
+        raise InputError(f"equations takes a compiled System, got {type(system).__name__}")
     nq = system.nq
-    qm = system.modeling_q if q is None else np.asarray(q, float)
-    if qm.shape != (nq,):
-        raise InputError(f"q must hold the {nq} joint variables, got shape {qm.shape}")
-    S = make_state(system, system.to_internal(qm), t)
-    for key in specified:
+    if state is not None:
+        if q is not None or rates is not None:
+            raise InputError("equations: give the posture as q (and rates) or as state=, "
+                             "not both")
+        if not isinstance(state, State) or state.q.shape != (nq,):
+            raise InputError(f"equations: state must be a State of this system ({nq} joint "
+                             f"variables), got {type(state).__name__}")
+        S = state.copy()
+        psid = S.qd.copy()
+        t = float(S.t[0])
+    else:
+        qm = posture(system, q)
+        t = float(floats(t, "t"))
+        S = make_state(system, system.to_internal(qm), t)
+        psid = per_coordinate(system, rates, "rates")
+    for key in coordinate_names(specified):
         S.sgc[system.var_index(key)] = True
-    psid = np.zeros(nq)
-    for key, v in dict(rates or {}).items():
-        c = system.var_index(key)
-        psid[c] = float(v) / system.var_scale[c]
     data = make_data(system, nq)
     dyn = make_dyn_data(system, nq)
     M, cv, Qv = np.zeros((nq, nq)), np.zeros(nq), np.zeros(nq)
@@ -211,11 +292,18 @@ def equations(system: System, q: Any = None, rates: Any = None, *,
     nf, _, ke, pe = eom(system.KP, data.DP, system.YP, dyn.ZP, S, system.gen,
                         float(pivot_tol), psid, (M, cv, Qv))
     cols = dyn.v.cols[:nf].copy()
-    # model units: generalized forces of angles times L^2, of lengths times L
-    Ls = system.length_scale
-    gs = np.where(np.array([system.var_kinds[c] for c in cols]) == "length", Ls, Ls * Ls)
-    e2 = Ls * Ls
+    # model units: generalized forces times gscale (L^2 for an angle, L for a length)
+    gs = system.Y.gscale[cols]
+    e2 = system.length_scale ** 2
     # M_ij psi''_j is a force of i: scale by gs_i gs_j / L^2 (rates of lengths are / L)
     Mm = M[:nf, :nf] * np.outer(gs, gs) / e2
-    return EquationsOfMotion([system.var_names[c] for c in cols], S.sgc[cols].copy(), Mm,
-                             cv[:nf] * gs, Qv[:nf] * gs, ke * e2, pe * e2)
+    coords = [system.var_names[c] for c in cols]
+    sgc = S.sgc[cols].copy()
+    F = np.flatnonzero(~sgc)
+    # the body screws per unit of each free coordinate, model units (v in lengths)
+    W = dyn.v.W[:, :nf][:, F].copy()
+    W[:, :, :3] *= system.length_scale
+    W /= system.var_scale[cols[F]][None, :, None]
+    why = mass_check(system, Mm[np.ix_(F, F)], [coords[i] for i in F], W)
+    return EquationsOfMotion(coords, sgc, Mm, cv[:nf] * gs, Qv[:nf] * gs, ke * e2, pe * e2,
+                             why)

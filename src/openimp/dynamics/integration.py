@@ -22,10 +22,10 @@ import numpy as np
 from openimp.dynamics import hooks
 from openimp.dynamics import stepping as stp
 from openimp.dynamics.events import Switches, crossed, locate
-from openimp.dynamics.laws import Instant, law_values_now
+from openimp.dynamics.eom import massless
+from openimp.dynamics.laws import Instant, law_derivatives, law_values_now
 from openimp.dynamics.outputs import OutputBuffer
 from openimp.dynamics.stepping import RunEnd, Stage
-from openimp.dynamics.vibration import check_mass, law_derivatives, linearize
 from openimp.errors import AnalysisError, InputError
 from openimp.kinematics.elimination import eliminate, free_columns, jacobian
 from openimp.kinematics.position import position
@@ -282,8 +282,8 @@ class Run:
         code = stp.restart(*self.k, S, system.gen, self.W)
         if code != Stage.OK:
             self.failed(code)
-            massless = _massless(system, S) if code == Stage.SINGULAR_MASS else ""
-            raise AnalysisError(f"t = {t0:g} s: {massless or why(code)}")
+            named = massless(system, S) if code == Stage.SINGULAR_MASS else ""
+            raise AnalysisError(f"t = {t0:g} s: {named or why(code)}")
         w.qref[0] = w.quality[0]
         if w.events[0]:
             self.g_start = self.switch_fns.signs(self.instant, t0)
@@ -405,13 +405,3 @@ class Run:
         w = self.w
         return tuple(self.system.var_names[int(c)] for c in w.fcols[:int(w.nF[0])])
 
-
-def _massless(system: System, S: Any) -> str:
-    """What moves without kinetic energy at the assembled start S (the vibration
-    analysis's diagnosis: the coordinates and the bodies), or "" when that finds M_FF
-    regular.  The linearization compiles only on this failure."""
-    try:
-        check_mass(linearize(system, S, motion_terms=False))
-    except (InputError, AnalysisError) as exc:
-        return str(exc) if "singular" in str(exc) else ""
-    return ""

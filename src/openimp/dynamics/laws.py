@@ -65,14 +65,12 @@ class LoadState:
         return self._tr.point(name)[self.step].copy()
 
 
-def _scale(system: Any, what: str, col: int) -> float:
-    """Factor from a law's model-unit value to internal units (see DYN_FIELDS)."""
-    Ls = system.length_scale
-    if what in ("spring", "damper", "force"):
-        return 1.0 / Ls
-    if what == "torque":
-        return 1.0 / Ls**2
-    return 1.0 / Ls if system.var_kinds[col] == "length" else 1.0 / Ls**2
+def _scale(system: Any, name: str, col: int) -> float:
+    """Factor from a law's model-unit value to internal units: 1 / the compiled table's
+    ``gscale`` of its joint variable ``col`` or ``escale`` of its element ``name``."""
+    if col >= 0:
+        return 1.0 / float(system.Y.gscale[col])
+    return 1.0 / float(system.Y.escale[system.elements.index(name)])
 
 
 def law_values(system: Any, trajectory: Any, times: np.ndarray) -> np.ndarray:
@@ -115,7 +113,7 @@ def law_value(system: Any, slot: int, s: LoadState, where: str) -> float:
                          f"{type(exc).__name__}: {exc}") from None
     if not math.isfinite(v):
         raise InputError(f"{label}: its law gave {v} at {where}; it must give a finite number")
-    return v * _scale(system, what, col)
+    return v * _scale(system, name, col)
 
 
 def _element_kinematics(system: Any, trajectory: Any, i: int) -> tuple[np.ndarray, np.ndarray]:
@@ -274,3 +272,90 @@ class OneWayDamper:
 
     def __call__(self, s: LoadState) -> float:
         return (self.ext if s.xd > 0 else self.comp) * s.xd
+
+
+# ----------------------------------------------------------------------------- derivatives
+def law_derivatives(system: Any, q: np.ndarray, G: np.ndarray, cols: np.ndarray,
+                    qpl: np.ndarray, qdpl: np.ndarray, Gl: np.ndarray, psid: np.ndarray,
+                    t: float, D: np.ndarray, K: np.ndarray, messages: list[str],
+                    sides: tuple[np.ndarray, np.ndarray] | None = None) -> None:
+    """Add g_e dlaw_e/dpsi to K and g_e dlaw_e/dpsi' to D (internal units, in place):
+    the laws are black boxes, differentiated by Richardson-extrapolated central
+    differences over the closed postures of the kernel (positions) and over the
+    joint rates phi' (psi' + s e_k) (rates), at the generalized rates of the set point.
+    q (nq,): the set point's joint variables; G (nq, nf) its first-order
+    coefficients, cols (nf,) its coordinates; qpl, qdpl (nf, 4, nq), Gl (nf, nlaw)
+    and D, K (nf, nf) of :func:`~openimp.dynamics.linear.linearize_kernel`; the
+    step h of its postures psi* + (-2h, -h, h, 2h) e_l is read from them (the
+    coordinate l itself moves by exactly those offsets).
+    ``sides`` (the time response): the directions (nf,) in which each coordinate
+    and each rate is moving; where a law has a kink inside the stencil (a stop's
+    contact, a one-way damper at rest) its slope is then taken on one side
+    (:func:`kinked_slopes`), not averaged across the kink."""
+    nf = G.shape[1]
+    u = psid[cols]
+    qd0 = G @ u
+    h = 0.5 * float(qpl[0, 2, cols[0]] - qpl[0, 1, cols[0]]) if nf else 1.0
+    rows_q, rows_qd = [], []
+    for lcol in range(nf):
+        for p in range(4):
+            rows_q.append(qpl[lcol, p])
+            rows_qd.append(qdpl[lcol, p])  # phi'(psi) psi'*: 0 at rest
+    s = 1e-4 * max(1.0, float(np.max(np.abs(u))) if nf else 1.0)
+    for k in range(nf):
+        for off in (-2.0, -1.0, 1.0, 2.0):
+            rows_q.append(q.copy())
+            rows_qd.append(qd0 + off * s * G[:, k])
+    if sides is not None:  # the laws at the set point itself, for one-sided slopes
+        rows_q.append(q.copy())
+        rows_qd.append(qd0)
+    vals = law_values_at(system, np.array(rows_q), np.array(rows_qd), t)
+    w = np.array([1.0, -8.0, 8.0, -1.0])
+    nl = Gl.shape[1]
+    Pq = vals[:4 * nf].reshape(nf, 4, -1)
+    Pr = vals[4 * nf:8 * nf].reshape(nf, 4, -1)
+    dpos = (w @ Pq) / (12.0 * h)  # (nf, nlaw)
+    drat = (w @ Pr) / (12.0 * s)
+    if sides is not None:
+        dpos = kinked_slopes(Pq, vals[8 * nf], h, sides[0], dpos)
+        drat = kinked_slopes(Pr, vals[8 * nf], s, sides[1], drat)
+    K -= Gl[:, :nl] @ dpos[:, :nl].T
+    D -= Gl[:, :nl] @ drat[:, :nl].T
+    messages.append("load laws differentiated numerically (central differences, "
+                    "Richardson extrapolation)")
+
+
+def kinked_slopes(P: np.ndarray, f0: np.ndarray, h: float, direction: np.ndarray,
+                   central: np.ndarray) -> np.ndarray:
+    """The slopes of laws with a kink in their stencil taken on one side.  P (nf, 4,
+    nlaw): the values at offsets (-2h, -h, h, 2h) of each coordinate; f0 (nlaw,) at
+    the point; direction (nf,): the sign of the motion; central (nf, nlaw): the
+    Richardson slopes, kept for a smooth law.  Where the one-sided slopes jump far
+    more than either side bends (the point on the kink: a located switch) the side
+    the motion goes to is taken (the central slope at rest); where they differ and
+    only one side is straight, that one (the kink lies within h on the other);
+    with the kink between h and 2h the inner central difference."""
+    fwd1 = (P[:, 2] - f0) / h
+    fwd2 = (P[:, 3] - f0) / (2.0 * h)
+    bwd1 = (f0 - P[:, 1]) / h
+    bwd2 = (f0 - P[:, 0]) / (2.0 * h)
+    tiny = 1e-9 * max(float(np.abs(P).max(initial=0.0)) / h, 1e-300)
+
+    def same(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        return np.abs(a - b) <= 1e-3 * np.maximum(np.abs(a), np.abs(b)) + tiny
+
+    differ = ~same(fwd1, bwd1)
+    f_ok, b_ok = same(fwd1, fwd2), same(bwd1, bwd2)
+    # on the kink (within 1e-3 h of it): the sides jump far more than either bends (a
+    # smooth law's one-sided slopes differ by its curvature, as much as each side bends;
+    # a point at d h from a kink bends by d / 2 of the jump on that side)
+    jump = np.abs(fwd1 - bwd1)
+    bend = np.abs(fwd2 - fwd1) + np.abs(bwd1 - bwd2)
+    at0 = differ & (jump > 1000.0 * bend + tiny)
+    go = np.broadcast_to(np.sign(direction)[:, None], differ.shape)
+    use_f = (at0 & (go > 0)) | (differ & ~at0 & f_ok & ~b_ok)
+    use_b = (at0 & (go < 0)) | (differ & ~at0 & b_ok & ~f_ok)
+    # a kink between h and 2h: the inner points agree, the outer ones are off it
+    inner = 0.5 * (fwd1 + bwd1)
+    out = np.where(~differ & ~same(central, inner), inner, central)
+    return np.where(use_f, fwd1, np.where(use_b, bwd1, out))

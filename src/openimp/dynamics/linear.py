@@ -34,7 +34,7 @@ posture with the set-point elimination kept:
   exactly closed postures (Richardson extrapolation of central differences,
   truncation O(h^4)), and only when the set point moves;
 * load laws (callables) are frozen at the set point in the kernel; their
-  own derivatives are added by :mod:`~openimp.dynamics.vibration`.
+  own derivatives are added by :func:`~openimp.dynamics.laws.law_derivatives`.
 """
 
 from __future__ import annotations

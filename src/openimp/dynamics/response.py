@@ -197,6 +197,9 @@ def simulate(
     if not isinstance(system, System):
         raise InputError(f"simulate takes a compiled System, got {type(system).__name__}")
     q = _renamed(q, q0, "q", "q0", None)
+    if isinstance(q, State):  # a State as q: the old way of state=
+        state = _renamed(state, q, "state=", "a State as q", None)
+        q = None
     force_error = _renamed(force_error, force_tol, "force_error", "force_tol", (0.1, 1.0))
     tout = output_times(t_final, print_step, times)
     opts = sim_options(tout, method, rtol, atol, force_error, min_step, max_step, first_step,

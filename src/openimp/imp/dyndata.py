@@ -190,8 +190,6 @@ def _masses(state: Any, model: Model, messages: list[str]) -> None:
         if link not in model.body_frames:
             continue  # a link in no joint: deleted at EXECUTE with its data
         where = md["where"]
-        if md["mass"] < 0:  # pragma: no cover - refused when the statement is read
-            raise InputError(f"DATA MASS ({link}): the mass must not be negative", where)
         joint = None if md["frame"] == "LINK" else md["frame"]
         G = _frame(state, link, joint, f"DATA MASS ({link})", where)
         c = (G @ np.append(np.asarray(md["center"], float), 1.0))[:3]

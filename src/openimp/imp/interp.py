@@ -43,6 +43,7 @@ from openimp.imp.dyndata import UNIT_MASS_DEFAULT, DynamicData, add_dynamic_data
 from openimp.imp.expr import Expression
 from openimp.imp.jointmap import IMP_JOINTS, bevel_frames, placement_frames
 from openimp.imp.parser import JOINT_DOF, Statement
+from openimp.massprops import mass_value
 from openimp.model import Model
 from openimp.spatial import inverse as _rigid_inverse
 from openimp.system import compile_model
@@ -777,9 +778,10 @@ class Interpreter:
     def _data_mass(self, stmt: Statement) -> None:
         f = stmt.fields
         self._mass_frame(f)
-        if f["mass"] < 0:
-            raise self.error(f"the mass of link {f['link']} must not be negative, got "
-                             f"{f['mass']:g}")
+        try:  # refused where the statement is read, so that the message has its line
+            mass_value(f["mass"], f"the mass of link {f['link']}")
+        except InputError as exc:
+            raise self.error(str(exc)) from None
         if self.state.extras.get("inertias", {}).pop(f["link"], None) is not None:
             self.msg(f"The inertia data of link {f['link']} are discarded: DATA MASS replaces "
                      "the mass data with a point mass; give DATA INERTIA again after it.")

@@ -30,12 +30,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from openimp.dynamics.vibration import (
-    frequency_response,
-    linearize,
-    modes,
-    transfer_function,
-)
+from openimp.dynamics.frequency import frequency_response, transfer_function
+from openimp.dynamics.linearize import linearize
+from openimp.dynamics.modes import modes
 from openimp.errors import AnalysisError, InputError
 from openimp.imp.listing import step_text, tables_from_columns
 from openimp.imp.run.prepare import DynSpec, Item, Prepared, stepped
@@ -98,8 +95,12 @@ class _Linearized:
             laws.times = sol.times
             laws.resolve_at = (lambda _s: _resolver(prep, sol, k, sol.times[k], None, k,
                                                     self.notes))
+        # the FGCs are held by the kinematic run: their accelerations are 0, not those of
+        # the equations of motion (linearize's default for a moving set point)
+        accels = dict.fromkeys(sol.fgc[k], 0.0)
+        accels.update({n: sol.qdd[k, c] for n, c in zip(names, cols)})
         lin = linearize(system, sol.q[k], {n: sol.qd[k, c] for n, c in zip(names, cols)},
-                        {n: sol.qdd[k, c] for n, c in zip(names, cols)}, specified=names,
+                        accels, specified=names,
                         t=float(sol.times[k]),
                         pivot_tol=st.tolerance("SYSTEM")[0] if "SYSTEM" in st.zero else 1e-10,
                         close=True)  # a loose ZERO (POSITION): closed again, not refused
@@ -153,7 +154,7 @@ def _mode_lines(m: Modes) -> list[str]:
 def _mode_rows(m: Modes, t: float) -> np.ndarray:
     """Table rows of one position: frequency (0 for a neutral mode), damping ratio,
     time constant (NaN where it does not apply or is infinite), time, mode."""
-    freq = np.where(np.array(m.kind) == "neutral", 0.0, m.frequency)
+    freq = m.frequency
     tau = np.where(np.isfinite(m.time_constant), m.time_constant, np.nan)
     n = m.count
     return np.column_stack([freq, m.damping, tau, np.full(n, t), np.arange(1.0, n + 1)])
