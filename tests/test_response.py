@@ -1117,3 +1117,17 @@ def test_laws_read_the_stage_as_a_trajectory():
     want = law_values_at(sy, S.q[None, :], S.qd[None, :], 0.1)[0]
     np.testing.assert_allclose(got, want[:1], rtol=1e-13, atol=0)
     assert got[0] != 0.0
+
+
+def test_state_as_q_is_deprecated():
+    """A State given as q still starts the run from it, with a DeprecationWarning naming
+    state=; the run equals the one of state= (same outputs)."""
+    from openimp.system import make_state
+
+    _, sy = compiled(("smd",), lambda: spring_mass(SMD["m"], SMD["k"], SMD["c"]))
+    S = make_state(sy, sy.to_internal(np.array([0.2])))
+    times = np.linspace(0.0, 0.5, 6)
+    with pytest.warns(DeprecationWarning, match="use state="):
+        old = openimp.simulate(sy, times=times, q=S)
+    new = openimp.simulate(sy, times=times, state=S)
+    assert np.array_equal(old.q, new.q) and old.q[0, 0] == pytest.approx(0.2, abs=1e-15)

@@ -21,8 +21,8 @@ import numpy as np
 
 from openimp.dynamics import hooks
 from openimp.dynamics import stepping as stp
-from openimp.dynamics.events import Switches, crossed, locate
 from openimp.dynamics.eom import massless
+from openimp.dynamics.events import Switches, crossed, locate
 from openimp.dynamics.laws import Instant, law_derivatives, law_values_now
 from openimp.dynamics.outputs import OutputBuffer
 from openimp.dynamics.stepping import RunEnd, Stage
