@@ -148,7 +148,7 @@ def test_openimp_remark_and_warmup_text():
     recs = {"openimp": _fake("openimp", [
         ("rk 1e-8", {"method": "rk", "rtol": 1e-8}),
         ("rk 1e-8, 0.1 s", {"method": "rk", "rtol": 1e-8, "print_step": 0.1}),
-        ("book", {"method": "book", "force_tol": (0.1, 1.0)}),
+        ("book", {"method": "book", "force_error": (0.1, 1.0)}),
         ("book, 0.1 s", {"method": "book", "print_step": 0.1})], 1e-6, 0.01)}
     a, b = recs["openimp"]["settings"][:2]
     a["median_s"], b["median_s"], a["evaluations"] = 0.019, 0.010, 960

@@ -206,9 +206,9 @@ def test_dynamics_docs_run_and_are_right(monkeypatch, capsys, tmp_path) -> None:
     assert f"{np.degrees(lref.y[0, -1]):.4f}: from along +x" in flat
     # Newton's reach from the drawing: 30 degrees yes, 45 no
     fourbar = ns["fourbar"]
-    openimp.simulate(fourbar, 0.02, print_step=0.01, q0={"A": np.radians(-30)})
+    openimp.simulate(fourbar, 0.02, print_step=0.01, q={"A": np.radians(-30)})
     with pytest.raises(openimp.InputError, match="cannot be assembled at the start"):
-        openimp.simulate(fourbar, 0.02, print_step=0.01, q0={"A": np.radians(-45)})
+        openimp.simulate(fourbar, 0.02, print_step=0.01, q={"A": np.radians(-45)})
     with pytest.raises(openimp.InputError, match="not independent"):
         openimp.simulate(fourbar, 0.02, print_step=0.01, rates={"A": 1.0, "B": 1.0})
 

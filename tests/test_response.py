@@ -101,7 +101,7 @@ L_P, M_P = 0.7, 2.0
 
 #: method -> (options, period tolerance relative): rk at rtol 1e-10 (measured 2e-11);
 #: the book's step with a force error of 1e-6 N (measured ~1e-8)
-PERIOD = {"rk": (dict(rtol=1e-10), 1e-8), "book": (dict(force_tol=(1e-6, 1e-4)), 1e-6)}
+PERIOD = {"rk": (dict(rtol=1e-10), 1e-8), "book": (dict(force_error=(1e-6, 1e-4)), 1e-6)}
 
 
 @pytest.mark.parametrize("method", list(PERIOD))
@@ -116,7 +116,7 @@ def test_pendulum_period(theta0_deg, method):
     opts, tol = PERIOD[method]
     th0 = theta0_deg * math.pi / 180
     T = pendulum_period(L_P, th0)
-    res = openimp.simulate(sy, 1.3 * T, print_step=0.01, q0={"A": th0}, method=method, **opts)
+    res = openimp.simulate(sy, 1.3 * T, print_step=0.01, q={"A": th0}, method=method, **opts)
     assert res.complete, res.message
     assert res.integration.method == method
     t = res.time
@@ -310,7 +310,7 @@ def test_fourbar_book_method(fb):
     _, sy, ref = fb
     times = np.linspace(0.0, 2.0, 41)
     phi_ref, _ = reference_fourbar(ref, times)
-    res = openimp.simulate(sy, times=times, method="book", force_tol=(1e-3, 1.0))
+    res = openimp.simulate(sy, times=times, method="book", force_error=(1e-3, 1.0))
     assert res.complete, res.message
     assert res.integration.method == "book"
     assert res.closure.max() < 1e-10
@@ -336,7 +336,7 @@ def stiff_run(method, **opts):
     times = np.linspace(0.0, 3.0, 31)
     rigid = solve_ivp(lambda t, y: [y[1], -G / p["l"] * math.sin(y[0])], (0.0, 3.0),
                       [th0, 0.0], method="DOP853", rtol=1e-12, atol=1e-12, t_eval=times)
-    res = openimp.simulate(sy, times=times, q0={"A": th0, "P": s0}, method=method, **opts)
+    res = openimp.simulate(sy, times=times, q={"A": th0, "P": s0}, method=method, **opts)
     assert res.complete, res.message
     return res, rigid.y[0], k, 2 * math.pi * math.sqrt(p["m"] / k)
 
@@ -409,7 +409,7 @@ RK_AUDIT = 1e-8
 #: rk measured 2.4e-10, 8.8e-10, 5.9e-10; book (1e-4 N, 0.01 %) measured
 #: 6.2e-5, 1.6e-4, 1e-4
 CART = {"rk": (dict(rtol=1e-10), 1e-8, 1e-8, RK_AUDIT),
-        "book": (dict(force_tol=(1e-4, 1e-2)), 2e-4, 5e-4, 4e-4)}
+        "book": (dict(force_error=(1e-4, 1e-2)), 2e-4, 5e-4, 4e-4)}
 
 
 @pytest.mark.parametrize("method", list(CART))
@@ -428,7 +428,7 @@ def test_driven_cart_pendulum(kind, method):
     th0 = 0.6
     times = np.linspace(0.0, 3.0, 31)
     th_ref, w_ref, W_ref = cart_reference(motion, th0, times)
-    res = openimp.simulate(sy, times=times, q0={"A": th0}, motion={"S": motion},
+    res = openimp.simulate(sy, times=times, q={"A": th0}, motion={"S": motion},
                            method=method, **opts)
     assert res.complete, res.message
     assert res.sgc == ["S.s"] and all(f == ["A.theta"] for f in res.fgc)
@@ -466,7 +466,7 @@ def test_spring_mass_damper_closed_form(method):
     m, k, c, x0 = SMD["m"], SMD["k"], SMD["c"], SMD["x0"]
     times = np.linspace(0.0, 5.0, 51)
     x, v = damped_free(times, x0, m, k, c)
-    res = openimp.simulate(sy, times=times, q0={"X": x0}, method=method,
+    res = openimp.simulate(sy, times=times, q={"X": x0}, method=method,
                            **(dict(rtol=1e-10) if method == "rk" else {}))
     assert res.complete, res.message
     tx, tv = (1e-9, 5e-9) if method == "rk" else (1e-12, 1e-12)
@@ -501,7 +501,7 @@ def test_book_energy_audit_of_an_exact_motion():
     decay = 0.5 * k * x0 * x0 - (0.5 * k * x * x + 0.5 * m * v * v)
     errs = []
     for h in (0.1, 0.05, 0.025):
-        res = openimp.simulate(sy, times=times, q0={"X": x0}, method="book", max_step=h)
+        res = openimp.simulate(sy, times=times, q={"X": x0}, method="book", max_step=h)
         assert res.integration.steps == round(5.0 / h)
         errs.append(np.abs(res.energy.dissipated - decay).max() / (0.5 * k * x0 * x0))
         # the balance is that error: the motion is exact
@@ -512,7 +512,7 @@ def test_book_energy_audit_of_an_exact_motion():
 
 #: method -> (options, angle tol rad, dissipated tol relative, balance tol)
 DAMPED = {"rk": (dict(rtol=1e-10), 1e-8, 1e-8, RK_AUDIT),
-          "book": (dict(force_tol=(1e-3, 0.1)), 1e-3, 1e-2, 1e-2)}
+          "book": (dict(force_error=(1e-3, 0.1)), 1e-3, 1e-2, 1e-2)}
 
 
 @pytest.mark.parametrize("method", list(DAMPED))
@@ -530,7 +530,7 @@ def test_damped_pendulum(method):
     sol = solve_ivp(lambda t, y: [y[1], -G / l * math.sin(y[0]) - c * y[1] / (m * l * l),
                                   c * y[1] ** 2], (0.0, 5.0), [th0, 0.0, 0.0],
                     method="DOP853", rtol=1e-12, atol=1e-12, t_eval=times)
-    res = openimp.simulate(sy, times=times, q0={"A": th0}, method=method, **opts)
+    res = openimp.simulate(sy, times=times, q={"A": th0}, method=method, **opts)
     assert res.complete, res.message
     assert np.abs(res.q[:, 0] - sol.y[0]).max() <= tol_th, np.abs(res.q[:, 0] - sol.y[0]).max()
     e = res.energy
@@ -685,7 +685,7 @@ def test_one_way_damper_switchings(method):
         m, k, damper_law=openimp.OneWayDamper(OWD["ext"], OWD["comp"])))
     switch_times, pieces = one_way_reference(8)
     times = np.linspace(0.0, 4.0, 81)
-    res = openimp.simulate(sy, times=times, q0={"X": OWD["x0"]}, method=method, **opts)
+    res = openimp.simulate(sy, times=times, q={"X": OWD["x0"]}, method=method, **opts)
     assert res.complete, res.message
     want = switch_times[switch_times < 4.0]
     got = np.array([e.time for e in res.events])
@@ -715,7 +715,7 @@ def test_book_step_on_a_law_contact():
     _, sy = compiled(("drop", "BumpStop"), lambda: drop_spec("BumpStop"))
     rk = openimp.simulate(sy, 0.7, print_step=0.01, rtol=1e-10)
     book = openimp.simulate(sy, 0.7, print_step=0.01, method="book")
-    tight = openimp.simulate(sy, 0.7, print_step=0.01, method="book", force_tol=(1e-3, 0.1))
+    tight = openimp.simulate(sy, 0.7, print_step=0.01, method="book", force_error=(1e-3, 0.1))
     assert rk.complete and book.complete and tight.complete
     assert book.integration.steps < rk.integration.steps, \
         (book.integration.steps, rk.integration.steps)
@@ -766,7 +766,7 @@ def test_forces_on_the_driven_cart():
     spec, sy = compiled("cart", slider_pendulum)
     p = SLP
     motion = Harmonic(0.2, 5.0)
-    res = openimp.simulate(sy, 3.0, print_step=0.1, q0={"A": 0.6}, motion={"S": motion},
+    res = openimp.simulate(sy, 3.0, print_step=0.1, q={"A": 0.6}, motion={"S": motion},
                            rtol=1e-10)
     assert res.complete, res.message
     F = openimp.forces_of(res)
@@ -785,7 +785,7 @@ def test_forces_with_a_law_damper():
     m, k = OWD["m"], OWD["k"]
     _, sy = compiled("one-way", lambda: spring_mass(
         m, k, damper_law=openimp.OneWayDamper(OWD["ext"], OWD["comp"])))
-    res = openimp.simulate(sy, 3.0, print_step=0.05, q0={"X": OWD["x0"]}, rtol=1e-10)
+    res = openimp.simulate(sy, 3.0, print_step=0.05, q={"X": OWD["x0"]}, rtol=1e-10)
     assert res.complete, res.message
     F = openimp.forces_of(res)
     assert np.abs(F.drive["X.s"]).max() <= 1e-10 * k * OWD["x0"]
@@ -811,15 +811,15 @@ def test_forces_with_a_law_damper():
     (dict(t_final=1e100, print_step=1e-13), r"t_final 1e\+100 s at print_step 1e-13 s makes "
                                             r"1e\+113 outputs, more than 1e\+07"),
     (dict(t_final=1.0, print_step=1e-310), r"print_step 1e-310 s makes inf outputs"),
-    (dict(t_final=1.0, q0={"Z": 0.1}), r"q0: 'Z' is not a joint variable.*A\.theta"),
-    (dict(t_final=1.0, q0={"A": "x"}), r"q0: the value of 'A' must be a number"),
-    (dict(t_final=1.0, q0=[0.1, 0.2, 0.3]), r"q0 must hold 4 finite numbers"),
+    (dict(t_final=1.0, q={"Z": 0.1}), r"q: 'Z' is not a joint variable.*A\.theta"),
+    (dict(t_final=1.0, q={"A": "x"}), r"q: the value of 'A' must be a number"),
+    (dict(t_final=1.0, q=[0.1, 0.2, 0.3]), r"q must hold 4 finite numbers"),
     (dict(t_final=1.0, rates={"B": 1.0, "D": 1.0}), r"initial rates of B\.theta, D\.theta "
                                                       r"are not independent"),
     (dict(t_final=1.0, rates={"Q": 1.0}), r"rates: 'Q' is not a joint variable"),
-    (dict(t_final=1.0, force_tol=(0.0, 1.0)), r"force_tol"),
-    (dict(t_final=1.0, force_tol=(0.1, -1.0)), r"force_tol"),
-    (dict(t_final=1.0, force_tol=0.1), r"force_tol must be \(force, percent\)"),
+    (dict(t_final=1.0, force_error=(0.0, 1.0)), r"force_error"),
+    (dict(t_final=1.0, force_error=(0.1, -1.0)), r"force_error"),
+    (dict(t_final=1.0, force_error=0.1), r"force_error must be \(force, percent\)"),
     (dict(t_final=1.0, keep=False), r"keep=False needs stream="),
     (dict(t_final=1.0, stream="out.txt"), r"stream must name a \.csv file"),
     (dict(t_final=1.0, stream="/no/such/folder/out.csv"), r"does not exist"),
@@ -827,8 +827,8 @@ def test_forces_with_a_law_damper():
     (dict(t_final=1.0, min_step=2.0), r"min_step 2 s exceeds the largest step"),
     (dict(t_final=1.0, motion={"A": ConstantRate(0, 1)}, rates={"A": 1.0}),
      r"initial rates are given for a driven coordinate"),
-    (dict(t_final=1.0, motion={"A": ConstantRate(0, 1)}, q0={"A": 1.0}),
-     r"q0: A\.theta is driven by its motion"),
+    (dict(t_final=1.0, motion={"A": ConstantRate(0, 1)}, q={"A": 1.0}),
+     r"q: A\.theta is driven by its motion"),
     (dict(t_final=1.0, motion={"NOPE": 1.0}), r"motion: 'NOPE' is not a joint variable"),
     (dict(t_final=1.0, motion={"A": "fast"}), r"a motion must be a Motion object"),
     (dict(t_final=1.0, progress="yes"), r"progress must be None, True, False or a callable"),
@@ -937,7 +937,7 @@ def test_vanishing_mass_matrix(method):
     mass matrix, IMP's ZERO (INERTIA)) and a time between the last kept output (1.9 s)
     and the next one; the outputs before are kept."""
     _, sy = compiled("shrinking", shrinking_pendulum)
-    res = openimp.simulate(sy, 3.0, print_step=0.1, q0={"A": 0.0},
+    res = openimp.simulate(sy, 3.0, print_step=0.1, q={"A": 0.0},
                            motion={"P": ConstantRate(0.5, -0.25)}, method=method)
     assert not res.complete
     assert "singular" in res.message and "ZERO (INERTIA)" in res.message, res.message
@@ -954,7 +954,7 @@ def test_vanishing_mass_matrix_while_moving(method):
     5000 steps the run stops with the reason (singular mass matrix) at a time in
     (1.9, 2] s."""
     _, sy = compiled("shrinking", shrinking_pendulum)
-    res = openimp.simulate(sy, 3.0, print_step=0.1, q0={"A": 0.3},
+    res = openimp.simulate(sy, 3.0, print_step=0.1, q={"A": 0.3},
                            motion={"P": ConstantRate(0.5, -0.25)}, method=method,
                            max_steps=5000)
     assert not res.complete
@@ -973,7 +973,7 @@ def test_massless_link_at_the_start_is_named():
     md.set_gravity((0, -G, 0))
     sy = openimp.compile(md)
     with pytest.raises(OpenIMPError, match=r"(?s)t = 0.*singular.*(LINK2|B\.theta)"):
-        openimp.simulate(sy, 1.0, q0={"A": 0.2})
+        openimp.simulate(sy, 1.0, q={"A": 0.2})
 
 
 def test_point_mass_has_no_inertia_warnings():
@@ -1009,3 +1009,125 @@ def test_law_slopes_on_one_side_of_a_kink(law, x0, direction, want):
     got = kinked_slopes(P, f(np.array([x0])), h, np.array([direction]), central)
     assert got.shape == (1, 1)
     assert got[0, 0] == pytest.approx(want, abs=1e-9), got
+
+
+# =============================================================================
+# The vocabulary: q, state=, specified=, force_error, progress(done, total)
+# =============================================================================
+def test_specified_coordinate_is_held():
+    """specified=["S"] without a motion holds the cart where it starts: S.s stays 0 with
+    zero rate, and the bob swings as a pendulum on a fixed pivot, against scipy's
+    theta'' = -g sin(theta) / l (cart_reference with the cart at rest; rk 1e-10: 1e-8
+    rad)."""
+    _, sy = compiled("cart", slider_pendulum)
+    times = np.linspace(0.0, 2.0, 21)
+    th_ref, w_ref, _ = cart_reference(ConstantRate(0.0, 0.0), 0.6, times)
+    res = openimp.simulate(sy, times=times, q={"A": 0.6}, specified=["S"], rtol=1e-10)
+    assert res.complete, res.message
+    assert res.sgc == ["S.s"]
+    assert np.all(res.variable("S") == 0.0) and np.all(res.qd[:, sy.var_index("S")] == 0.0)
+    assert np.abs(res.variable("A") - th_ref).max() <= 1e-8
+    assert np.abs(res.qd[:, sy.var_index("A")] - w_ref).max() <= 1e-8
+
+
+def test_state_start():
+    """state= starts from a State (internal units, its rates taken for the free
+    coordinates): the spring-mass from x0 at rate v0 against the closed form of m x'' +
+    c x' + k x = 0 from (x0, v0) (the free and forced parts superposed; rk 1e-10:
+    1e-9 m)."""
+    from openimp.system import make_state
+
+    _, sy = compiled(("smd",), lambda: spring_mass(SMD["m"], SMD["k"], SMD["c"]))
+    m, k, c, x0, v0 = SMD["m"], SMD["k"], SMD["c"], SMD["x0"], -0.4
+    S = make_state(sy, sy.to_internal(np.array([x0])))
+    S.qd[0] = v0 / sy.var_scale[0]
+    times = np.linspace(0.0, 2.0, 21)
+    res = openimp.simulate(sy, times=times, state=S, rtol=1e-10)
+    assert res.complete, res.message
+    wn = math.sqrt(k / m)
+    z = c / (2 * math.sqrt(k * m))
+    wd = wn * math.sqrt(1 - z * z)
+    x = np.exp(-z * wn * times) * (x0 * np.cos(wd * times)
+                                   + (v0 + z * wn * x0) / wd * np.sin(wd * times))
+    assert np.abs(res.q[:, 0] - x).max() <= 1e-9, np.abs(res.q[:, 0] - x).max()
+    with pytest.raises(InputError, match="either state= or q/rates"):
+        openimp.simulate(sy, 1.0, state=S, q={"X": 0.1})
+
+
+def test_progress_is_done_of_total(fb):
+    """progress(done, total): the time reached (increasing, up to the final time) and the
+    final time."""
+    _, sy, _ = fb
+    seen = []
+    openimp.simulate(sy, 0.3, print_step=0.1, progress=lambda d, t: seen.append((d, t)))
+    assert seen and all(t == 0.3 for _, t in seen)
+    done = [d for d, _ in seen]
+    assert done == sorted(done) and done[-1] == pytest.approx(0.3, abs=1e-12)
+
+
+def test_q0_is_deprecated():
+    """q0= still works, with a DeprecationWarning naming q, and gives the run of q=; both
+    together are refused."""
+    _, sy = compiled(("smd",), lambda: spring_mass(SMD["m"], SMD["k"], SMD["c"]))
+    times = np.linspace(0.0, 0.5, 6)
+    with pytest.warns(DeprecationWarning, match="q0 is deprecated, use q"):
+        old = openimp.simulate(sy, times=times, q0={"X": 0.2})
+    new = openimp.simulate(sy, times=times, q={"X": 0.2})
+    assert np.array_equal(old.q, new.q) and old.q[0, 0] == 0.2
+    with pytest.raises(InputError, match=r"give q .*not both"):
+        openimp.simulate(sy, times=times, q={"X": 0.2}, q0={"X": 0.2})
+
+
+def test_force_tol_is_deprecated():
+    """force_tol= still works, with a DeprecationWarning naming force_error, and gives the
+    run of force_error=."""
+    _, sy = compiled(("smd",), lambda: spring_mass(SMD["m"], SMD["k"], SMD["c"]))
+    times = np.linspace(0.0, 0.5, 6)
+    with pytest.warns(DeprecationWarning, match="force_tol is deprecated, use force_error"):
+        old = openimp.simulate(sy, times=times, q={"X": 0.2}, method="book",
+                               force_tol=(1e-3, 0.1))
+    new = openimp.simulate(sy, times=times, q={"X": 0.2}, method="book",
+                           force_error=(1e-3, 0.1))
+    assert np.array_equal(old.q, new.q)
+    assert old.integration.steps == new.integration.steps
+
+
+def test_laws_read_the_stage_as_a_trajectory():
+    """The laws of a run read the stage from the run's own arrays (laws.Instant: no
+    trajectory built): the LiftOff of the drop, compressed and moving, gives the value
+    the trajectory route gives (laws.law_values_at) to 1e-13, and its coordinate is
+    the spring's length y + h + 0.5 and rate y' (closed form)."""
+    from openimp.dynamics.eom import eom
+    from openimp.dynamics.laws import Instant, law_coordinate, law_values_at, law_values_now
+    from openimp.system import make_data, make_dyn_data, make_state
+
+    _, sy = compiled(("drop", "LiftOff"), lambda: drop_spec("LiftOff"))
+    y, yd = -0.23, -1.3
+    S = make_state(sy, sy.to_internal(np.array([y])))
+    data, dyn = make_data(sy, sy.nq), make_dyn_data(sy, sy.nq)
+    psid = np.array([yd / sy.var_scale[0]])
+    n = sy.nq
+    eom(sy.KP, data.DP, sy.YP, dyn.ZP, S, sy.gen, 1e-10, psid,
+        (np.zeros((n, n)), np.zeros(n), np.zeros(n)))
+    inst = Instant(sy, S, data)
+    x, xd = law_coordinate(sy, inst, 0)
+    assert x == pytest.approx(y + DROP["h"] + 0.5, abs=1e-13) and xd == pytest.approx(yd, abs=1e-13)
+    got = np.zeros(1)
+    law_values_now(sy, inst, 0.1, got)
+    want = law_values_at(sy, S.q[None, :], S.qd[None, :], 0.1)[0]
+    np.testing.assert_allclose(got, want[:1], rtol=1e-13, atol=0)
+    assert got[0] != 0.0
+
+
+def test_state_as_q_is_deprecated():
+    """A State given as q still starts the run from it, with a DeprecationWarning naming
+    state=; the run equals the one of state= (same outputs)."""
+    from openimp.system import make_state
+
+    _, sy = compiled(("smd",), lambda: spring_mass(SMD["m"], SMD["k"], SMD["c"]))
+    S = make_state(sy, sy.to_internal(np.array([0.2])))
+    times = np.linspace(0.0, 0.5, 6)
+    with pytest.warns(DeprecationWarning, match="use state="):
+        old = openimp.simulate(sy, times=times, q=S)
+    new = openimp.simulate(sy, times=times, state=S)
+    assert np.array_equal(old.q, new.q) and old.q[0, 0] == pytest.approx(0.2, abs=1e-15)

@@ -264,7 +264,22 @@ else:
     def packed_views(layout: tuple[tuple[int, int], ...], cls: type) -> Callable[..., Any]:
         """``unpack(P)``: the named tuple ``cls`` of the fields of ``P`` (plain Python)."""
 
+        made: dict[int, tuple[Any, Any]] = {}
+
         def unpack(P: Any) -> Any:
+            # the views of the same buffers are made once (a kernel unpacks at every
+            # call; uncompiled, building them cost more than the arithmetic)
+            H = P[0]
+            hit = made.get(id(H))
+            if hit is not None and hit[0] is P:
+                return hit[1]
+            res = _unpack(P)
+            if len(made) >= 64:
+                made.clear()
+            made[id(H)] = (P, res)
+            return res
+
+        def _unpack(P: Any) -> Any:
             H = P[0]
             out = []
             for k, (b, nd) in enumerate(layout):

@@ -288,20 +288,22 @@ def views(table: tuple[Field, ...], P: tuple[np.ndarray, ...]) -> list[np.ndarra
     return out
 
 
-def _layout_of(table: tuple[Field, ...]) -> tuple[tuple[int, int], ...]:
+def layout_of(table: tuple[Field, ...]) -> tuple[tuple[int, int], ...]:
+    """Per field of a table its buffer (0 int, 1 float, 2 bool) and number of dimensions:
+    the layout :func:`~openimp._jit.packed_views` unpacks."""
     return tuple((_BUFFER[f.kind], len(f.shape)) for f in table)
 
 
 #: ``model_views(KP)``: the :data:`MODEL_FIELDS` of a packed model as named views,
 #: inside a kernel (:func:`openimp._jit.packed_views`: emitted in place, the views take
 #: the kernel's reference-counting mode and LLVM drops the ones it does not read)
-model_views = packed_views(_layout_of(MODEL_FIELDS), KModel)
+model_views = packed_views(layout_of(MODEL_FIELDS), KModel)
 #: ``data_views(DP)``: the :data:`DATA_FIELDS` of packed data as named views
-data_views = packed_views(_layout_of(DATA_FIELDS), KWork)
+data_views = packed_views(layout_of(DATA_FIELDS), KWork)
 #: ``dyn_views(YP)``: the :data:`DYN_FIELDS` of a packed model as named views
-dyn_views = packed_views(_layout_of(DYN_FIELDS), KDyn)
+dyn_views = packed_views(layout_of(DYN_FIELDS), KDyn)
 #: ``dyn_data_views(ZP)``: the :data:`DYN_DATA_FIELDS` of packed scratch as named views
-dyn_data_views = packed_views(_layout_of(DYN_DATA_FIELDS), KDynData)
+dyn_data_views = packed_views(layout_of(DYN_DATA_FIELDS), KDynData)
 
 
 # =============================================================================

@@ -27,9 +27,12 @@ linearisation, time response) call:
   :func:`mode_motion` (ch 13); :mod:`~openimp.dynamics.frequency`:
   :func:`transfer_function`, :func:`frequency_response`, :func:`state_space`
   (13.18-13.21) (their arguments read by :mod:`~openimp.kinematics.inputs`);
-* :mod:`~openimp.dynamics.stepping`, :mod:`~openimp.dynamics.response`: the
-  compiled time stepping (Dormand-Prince and the book's exponential step) and
-  :func:`simulate`, the time response (ch 14).
+* :mod:`~openimp.dynamics.stepping`: the one compiled time step (Dormand-Prince
+  and the book's exponential step), :mod:`~openimp.dynamics.hooks` the Python
+  callables it calls from inside; :mod:`~openimp.dynamics.response`:
+  :func:`simulate`, the time response (ch 14), with the run
+  (:mod:`~openimp.dynamics.integration`), its outputs
+  (:mod:`~openimp.dynamics.outputs`) and events (:mod:`~openimp.dynamics.events`).
 """
 
 from openimp.dynamics.analysis import forces, forces_of

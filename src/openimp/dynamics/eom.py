@@ -32,7 +32,7 @@ from openimp.dynamics.inertia import body_inertias, inertia_wrenches, mass_matri
 from openimp.dynamics.laws import law_values_at
 from openimp.dynamics.loads import applied_loads
 from openimp.errors import AnalysisError, InputError
-from openimp.kinematics.elimination import derivatives, eliminate, jacobian
+from openimp.kinematics.elimination import derivatives, eliminate, free_columns, jacobian
 from openimp.kinematics.inputs import (
     finite,
     given_state,
@@ -68,13 +68,11 @@ def generalized(KP: tuple, DP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | Non
     position(KP, DP, S, gen, 1)
     jacobian(KP, DP, S, gen)
     rank = eliminate(DP, S.sgc, ptol)[0]
-    for a in range(nq):
-        d.used[a] = False
-    for k in range(rank):
-        d.used[d.pcol[k]] = True
+    free = d.used[:nq]
+    free_columns(DP, S.sgc, rank, free)
     nf = 0
     for a in range(nq):
-        if S.sgc[a] or not d.used[a]:
+        if S.sgc[a] or free[a]:
             z.cols[nf] = a
             nf += 1
     G = z.Gf[:, :nf]
@@ -104,6 +102,43 @@ def generalized_forces(KP: tuple, ZP: tuple, nf: int, c: np.ndarray, Q: np.ndarr
         Q[j] = qj
 
 
+@njit(nrt=False, inline="always")
+def eom_rates(KP: tuple, DP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | None,
+              ptol: float, psid: np.ndarray) -> tuple[int, int]:
+    """The kinematic half of :func:`eom`: the generalized coordinates at S.q
+    (:func:`generalized`), the joint rates S.qd = phi' psid (7.16), the body rates and the
+    velocity-product accelerations S.qdd (8.44).  Load laws may read the state from here
+    on (:func:`eom_loads` then takes their values).  Returns (rank, nf)."""
+    z = dyn_data_views(ZP)
+    rank, nf = generalized(KP, DP, ZP, S, gen, ptol)
+    cols = z.cols[:nf]
+    G = z.Gf[:, :nf]
+    for a in range(S.q.shape[0]):
+        s = 0.0
+        for j in range(nf):
+            s += G[a, j] * psid[cols[j]]
+        S.qd[a] = s
+    velocity(KP, DP, S)
+    velocity_product(KP, DP, S, gen, rank)
+    accelerations(KP, DP, S)
+    return rank, nf
+
+
+@njit(nrt=False, inline="always")
+def eom_loads(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, nf: int,
+              out: tuple) -> tuple[float, float, float]:
+    """The dynamic half of :func:`eom` after :func:`eom_rates`: M, c, Q into ``out`` =
+    (M, c, Q) with the law values in z.law.  Returns (kinetic energy, potential
+    energy, power of gravity)."""
+    M, c, Q = out
+    body_inertias(KP, DP, YP, ZP)
+    ke = inertia_wrenches(KP, DP, ZP)
+    pe, gp = applied_loads(KP, DP, YP, ZP, S)
+    mass_matrix(KP, ZP, M[:nf, :nf])
+    generalized_forces(KP, ZP, nf, c, Q)
+    return ke, pe, gp
+
+
 @njit(nrt=False)
 def eom(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | None,
         ptol: float, psid: np.ndarray, out: tuple) -> tuple[int, int, float, float]:
@@ -117,24 +152,8 @@ def eom(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | 
     written.  M: (nq, nq), c, Q: (nq,), the leading nf used.  Returns (nf,
     rank, kinetic energy, potential energy).
     """
-    M, c, Q = out
-    z = dyn_data_views(ZP)
-    rank, nf = generalized(KP, DP, ZP, S, gen, ptol)
-    cols = z.cols[:nf]
-    G = z.Gf[:, :nf]
-    for a in range(S.q.shape[0]):
-        s = 0.0
-        for j in range(nf):
-            s += G[a, j] * psid[cols[j]]
-        S.qd[a] = s
-    velocity(KP, DP, S)
-    velocity_product(KP, DP, S, gen, rank)
-    accelerations(KP, DP, S)
-    body_inertias(KP, DP, YP, ZP)
-    ke = inertia_wrenches(KP, DP, ZP)
-    pe = applied_loads(KP, DP, YP, ZP, S)[0]
-    mass_matrix(KP, ZP, M[:nf, :nf])
-    generalized_forces(KP, ZP, nf, c, Q)
+    rank, nf = eom_rates(KP, DP, ZP, S, gen, ptol, psid)
+    ke, pe, _ = eom_loads(KP, DP, YP, ZP, S, nf, out)
     return nf, rank, ke, pe
 
 

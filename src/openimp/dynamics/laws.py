@@ -84,7 +84,7 @@ def law_values(system: Any, trajectory: Any, times: np.ndarray) -> np.ndarray:
     if not system.laws:
         return out
     rates = trajectory.has_rates
-    for slot, (what, name, fn, col) in enumerate(system.laws):
+    for slot, (what, name, _fn, col) in enumerate(system.laws):
         if col >= 0:
             x = trajectory.q[:, col]
             xd = trajectory.qd[:, col] if rates else np.zeros(n)
@@ -92,22 +92,28 @@ def law_values(system: Any, trajectory: Any, times: np.ndarray) -> np.ndarray:
             x, xd = _element_kinematics(system, trajectory, system.elements.index(name))
         else:
             x = xd = np.zeros(n)
-        f = _scale(system, name, col)
-        label = f"{what} {name!r}" if col < 0 else f"{what} of {system.var_names[col]}"
         for k in range(n):
-            try:
-                v = float(fn(LoadState(trajectory, k, float(times[k]), float(x[k]),
-                                       float(xd[k]))))
-            except InputError:
-                raise
-            except Exception as exc:  # the user's function: any failure is bad input
-                raise InputError(f"{label}: its law failed at step {k}: "
-                                 f"{type(exc).__name__}: {exc}") from None
-            if not math.isfinite(v):
-                raise InputError(f"{label}: its law gave {v} at step {k}; it must give a "
-                                 "finite number")
-            out[k, slot] = v * f
+            s = LoadState(trajectory, k, float(times[k]), float(x[k]), float(xd[k]))
+            out[k, slot] = law_value(system, slot, s, f"step {k}")
     return out
+
+
+def law_value(system: Any, slot: int, s: LoadState, where: str) -> float:
+    """The value of law ``slot`` of ``system`` at ``s``, internal units.  A law that
+    raises or gives something that is not a finite number is an input error naming
+    the element and ``where`` ("step 3", "t = 0.25 s")."""
+    what, name, fn, col = system.laws[slot]
+    label = f"{what} {name!r}" if col < 0 else f"{what} of {system.var_names[col]}"
+    try:
+        v = float(fn(s))
+    except InputError:
+        raise
+    except Exception as exc:  # the user's function: any failure is bad input
+        raise InputError(f"{label}: its law failed at {where}: "
+                         f"{type(exc).__name__}: {exc}") from None
+    if not math.isfinite(v):
+        raise InputError(f"{label}: its law gave {v} at {where}; it must give a finite number")
+    return v * _scale(system, name, col)
 
 
 def _element_kinematics(system: Any, trajectory: Any, i: int) -> tuple[np.ndarray, np.ndarray]:
@@ -132,6 +138,84 @@ def law_values_at(system: Any, q: np.ndarray, qd: np.ndarray, t: float) -> np.nd
                     tracker=tracker(system))
     tr.set_rates(qd.copy(), np.zeros_like(qd), np.zeros(n))
     return law_values(system, tr, np.full(n, float(t)))
+
+
+class Instant:
+    """One instant of a time response as a load law reads it: a trajectory of one step
+    (``q``, ``qd``, ``point``, ``point_velocity`` in model units) read straight from
+    the run's state ``S`` (internal units) and the postures and body rates of its
+    scratch ``data`` (the stage just evaluated), with nothing recomputed."""
+
+    has_rates = True
+    nsteps = 1
+
+    def __init__(self, system: Any, S: Any, data: Any) -> None:
+        self.system = system
+        #: the run's state (set when the run starts)
+        self.S = S
+        self._T0 = data.v.T0
+        self._V = data.v.V
+
+    @property
+    def q(self) -> np.ndarray:
+        return (self.S.q * self.system.var_scale)[None, :]
+
+    @property
+    def qd(self) -> np.ndarray:
+        return (self.S.qd * self.system.var_scale)[None, :]
+
+    def _local(self, name: str) -> tuple[int, np.ndarray]:
+        K = self.system.K
+        p = self.system.point_index(name)
+        b = int(K.ptbody[p])
+        return b, self._T0[b, :3] @ K.ptlocal[p]
+
+    def motion(self, name: str) -> tuple[np.ndarray, np.ndarray]:
+        """Global position and velocity (3,) of a point, model units (7.27)."""
+        b, r = self._local(name)
+        v, w = self._V[b, :3], self._V[b, 3:]
+        # w x r by hand: numpy's cross costs more than the rest of a law for a 3-vector
+        vel = np.array((v[0] + w[1] * r[2] - w[2] * r[1], v[1] + w[2] * r[0] - w[0] * r[2],
+                        v[2] + w[0] * r[1] - w[1] * r[0]))
+        L = self.system.length_scale
+        return r * L, vel * L
+
+    def point(self, name: str) -> np.ndarray:
+        """Global position (1, 3) of a point."""
+        return (self._local(name)[1] * self.system.length_scale)[None, :]
+
+    def point_velocity(self, name: str) -> np.ndarray:
+        """Global velocity (1, 3) of a point (7.27)."""
+        return self.motion(name)[1][None, :]
+
+
+def law_coordinate(system: Any, tr: Any, slot: int) -> tuple[float, float]:
+    """The coordinate of law ``slot`` and its rate at step 0 of ``tr`` (model units): the
+    joint variable of a joint element, the length of a spring or damper, 0 for a
+    force or torque."""
+    what, name, _fn, col = system.laws[slot]
+    if col >= 0:
+        return float(tr.q[0, col]), float(tr.qd[0, col])
+    if what in ("spring", "damper"):
+        i = system.elements.index(name)
+        p1, p2 = (system.points[int(p)] for p in system.Y.ept[i, :2])
+        if isinstance(tr, Instant):
+            (r1, v1), (r2, v2) = tr.motion(p1), tr.motion(p2)
+        else:
+            r1, r2 = tr.point(p1)[0], tr.point(p2)[0]
+            v1, v2 = tr.point_velocity(p1)[0], tr.point_velocity(p2)[0]
+        dvec = r1 - r2
+        ln = float(np.linalg.norm(dvec))
+        return ln, float(dvec @ (v1 - v2) / ln) if ln > 0 else 0.0
+    return 0.0, 0.0
+
+
+def law_values_now(system: Any, tr: Any, t: float, out: np.ndarray) -> None:
+    """The value of every law of ``system`` at step 0 of ``tr`` (an :class:`Instant`) at
+    time t into out (nlaw,), internal units."""
+    for slot in range(len(system.laws)):
+        x, xd = law_coordinate(system, tr, slot)
+        out[slot] = law_value(system, slot, LoadState(tr, 0, t, x, xd), f"t = {t:.6g} s")
 
 
 # ----------------------------------------------------------------------------- nonlinear laws

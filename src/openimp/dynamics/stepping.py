@@ -26,40 +26,103 @@ Works are integrated with the motion: of the drives (SGC forces times SGC
 rates), of the loads that have no potential, and the energy the dampers take
 out; with the kinetic and potential energies they make the energy audit.
 
-Everything here is in internal units (:mod:`openimp.system`); the scalars of
-a run live in ``w.st`` / ``w.it`` at the indices below.
+Everything here is in internal units (:mod:`openimp.system`).  A run's arrays
+and scalars are the fields of one table, :data:`WORK_FIELDS`, packed into
+:class:`Work` and unpacked by name in each kernel (:func:`step_views`).
+
+What only Python can give (the SGC motions of time, the load laws, their
+switching functions) is asked for from inside the step through the run's
+registered handler (:mod:`~openimp.dynamics.hooks`): the motion rows at an
+attempt's stage times, the law values at a stage as soon as its joint rates
+are known (one evaluation of the equations per stage), the laws' slopes for
+the book's linear model, and after each accepted step whether a switching
+function changed sign (the run then returns EVENT and the caller locates the
+root with the attempts below).
 """
 
 from __future__ import annotations
 
 import math
+from collections import namedtuple
+from enum import IntEnum
 from typing import NamedTuple
 
 import numpy as np
 
-from openimp._jit import njit
-from openimp.dynamics.eom import eom
+from openimp._jit import njit, packed_views
+from openimp.dynamics.eom import eom_loads, eom_rates
+from openimp.dynamics.hooks import Hook, call_hook
 from openimp.dynamics.linear import H_MOTION, linearize_kernel
-from openimp.kinematics.elimination import eliminate, jacobian
+from openimp.kinematics.elimination import eliminate, free_columns, jacobian
 from openimp.kinematics.position import position
 from openimp.kinematics.posture import newton
-from openimp.system import DAMPER, SPRING, data_views, dyn_data_views, dyn_views, model_views
+from openimp.system import (
+    DAMPER,
+    SPRING,
+    Field,
+    allocate,
+    data_views,
+    dyn_data_views,
+    dyn_views,
+    layout_of,
+    views,
+)
+
 
 # ------------------------------------------------------------------ codes
-#: what a stage or an attempt found
-OK, NO_CLOSURE, SINGULAR_MASS, LOST_COORDINATES, TOO_LARGE, UNDERFLOW = 0, 1, 2, 3, 4, 5
-#: what an attempt decided
-ACCEPTED, REJECTED, FAILED = 0, 1, 2
-#: what a run returned
-REACHED, SWITCHED, STOPPED, CAPPED, FULL = 0, 1, 2, 3, 4
+class Stage(IntEnum):
+    """What a stage or an attempt found (``Work.why``)."""
 
-#: float scalars of w.st
-(T, H, HNEXT, RTOL, ATOL, HMIN, HMAX, PTOL, CTOL, MTOL, FABS, FPCT, FSCALE, KE, PE,
- CLOSURE, QUALITY, SMALLEST, LARGEST, ERR, XMAX, QREF, TPREV, CLOS0, QUAL0, LSCALE,
- MSCALE, TFAIL, HPROP, NST) = range(30)
-#: integer scalars of w.it
-(NF, NS, STEPS, REJECTS, EVALS, CLOSES, MAXIT, HAVE_LIN, WHY, FORCED, LAW_OK,
- NIT) = range(12)
+    OK = 0
+    #: the loops cannot be closed (Newton did not converge)
+    NO_CLOSURE = 1
+    #: M_FF is singular (IMP's ZERO (INERTIA))
+    SINGULAR_MASS = 2
+    #: the elimination no longer leaves exactly the FGCs and SGCs
+    LOST_COORDINATES = 3
+    #: the book's step stays larger than its largest displacement
+    TOO_LARGE = 4
+    #: the error control asked for a step below the time's resolution
+    UNDERFLOW = 5
+    #: a motion, a law or a switching function (Python) failed: the run's handler says why
+    PYTHON = 6
+
+
+class Attempt(IntEnum):
+    """What an attempt decided."""
+
+    ACCEPTED = 0
+    REJECTED = 1
+    FAILED = 2
+
+
+class RunEnd(IntEnum):
+    """Why a compiled run returned."""
+
+    #: every output done
+    REACHED = 0
+    #: the FGCs changed at w.t (the caller records it and calls again)
+    SWITCHED = 1
+    #: a step could not be taken even at the smallest length (w.why says why)
+    STOPPED = 2
+    #: max_steps steps taken
+    CAPPED = 3
+    #: the next step's outputs would not fit the rows left
+    FULL = 4
+    #: a switching function changed sign over the step just accepted (outputs not yet
+    #: recorded): the caller locates the root and finishes the step (:func:`after_step`)
+    EVENT = 5
+
+
+# the codes as plain integers for the kernels
+OK, NO_CLOSURE, SINGULAR_MASS = int(Stage.OK), int(Stage.NO_CLOSURE), int(Stage.SINGULAR_MASS)
+LOST_COORDINATES, TOO_LARGE = int(Stage.LOST_COORDINATES), int(Stage.TOO_LARGE)
+UNDERFLOW, PYTHON = int(Stage.UNDERFLOW), int(Stage.PYTHON)
+ACCEPTED, REJECTED, FAILED = int(Attempt.ACCEPTED), int(Attempt.REJECTED), int(Attempt.FAILED)
+REACHED, SWITCHED, STOPPED = int(RunEnd.REACHED), int(RunEnd.SWITCHED), int(RunEnd.STOPPED)
+CAPPED, FULL, EVENT = int(RunEnd.CAPPED), int(RunEnd.FULL), int(RunEnd.EVENT)
+H_MOTION_ROWS, H_LAWS, H_LAW_TERMS = int(Hook.MOTION), int(Hook.LAWS), int(Hook.LAW_TERMS)
+H_SNAP, H_SWITCH = int(Hook.SNAP), int(Hook.SWITCH)
 
 # Dormand-Prince 5(4): nodes, stage weights (row 6 = the 5th-order weights, FSAL) and the
 # error weights b - b^ (b^ the 4th-order weights)
@@ -82,135 +145,222 @@ GL_X = np.array([0.5 - math.sqrt(15.0) / 10.0, 0.5, 0.5 + math.sqrt(15.0) / 10.0
 GL_W = np.array([5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0])
 
 
+
+
+#: the options of :func:`~openimp.dynamics.linear.linearize_kernel` (w.lopts) and the
+#: arrays of its linear model (Work.lin), by name
+LIN_PTOL, LIN_CTOL, LIN_STEP, LIN_MOVING, LIN_KEEP = range(5)
+LIN_M, LIN_D, LIN_K, LIN_F, LIN_GL, LIN_QPL, LIN_QDPL = 0, 1, 2, 3, 6, 7, 8
+#: the three works and powers of the energy audit (w.w0, w.pw, ...): of the drives, of
+#: the loads without potential, dissipated
+DRIVE, LOADS, DISSIPATED = range(3)
+#: the row of w.ms at the book step's middle (row 0 its start, the last its end)
+BOOK_MID = 1
+
+#: The arrays of one integration (internal units).  Sizes: nq joint variables, ns SGCs,
+#: nstage Dormand-Prince stages (7), n = 2 nq + 3 (the book's augmented matrix), nlaw
+#: load laws (at least 1).  Scalars are fields of one element.
+WORK_FIELDS: tuple[Field, ...] = (
+    # the run's settings
+    Field("rtol", "f", (1,), "relative tolerance of the rk error per step"),
+    Field("atol", "f", (1,), "absolute tolerance of the rk error per step"),
+    Field("hmin", "f", (1,), "smallest step (s)"),
+    Field("hmax", "f", (1,), "largest step (s)"),
+    Field("ptol", "f", (1,), "pivot tolerance of the elimination"),
+    Field("ctol", "f", (1,), "loop-closure tolerance of Newton"),
+    Field("mtol", "f", (1,), "singularity test of M_FF (IMP's ZERO (INERTIA))"),
+    Field("fabs", "f", (1,), "force error limit of the book's step, model units"),
+    Field("fpct", "f", (1,), "force error limit, percent of the largest force met"),
+    Field("xmax", "f", (1,), "largest displacement of a book step (internal units)"),
+    Field("maxit", "i", (1,), "Newton iterations allowed to close the loops at a stage"),
+    Field("hook", "i", (1,), "id of the run's Python handler (dynamics.hooks)"),
+    Field("driven", "b", (1,), "the SGC motions are Python callables (else held)"),
+    Field("laws", "b", (1,), "the system has load laws (Python callables)"),
+    Field("events", "b", (1,), "the laws' switching functions are watched"),
+    # the coordinates
+    Field("gscale", "f", ("nq",), "model units of a generalized force per internal unit"),
+    Field("role", "i", ("nq",), "0 dependent, 1 FGC, 2 SGC"),
+    Field("nF", "i", (1,), "number of FGCs"),
+    Field("fcols", "i", ("nq",), "the FGC columns, ascending (nF used)"),
+    Field("scols", "i", ("ns",), "the SGC columns, ascending"),
+    # the step start and the step
+    Field("t", "f", (1,), "time of the step start"),
+    Field("h", "f", (1,), "length of the attempt"),
+    Field("hnext", "f", (1,), "proposed length of the next attempt"),
+    Field("hprop", "f", (1,), "the proposal before a book step was cut to land"),
+    Field("q0", "f", ("nq",), "joint variables at the step start"),
+    Field("qd0", "f", ("nq",), "their rates"),
+    Field("qdd0", "f", ("nq",), "their accelerations"),
+    Field("x0", "f", ("nq",), "FGC positions at the step start"),
+    Field("v0", "f", ("nq",), "FGC rates at the step start"),
+    Field("w0", "f", (3,), "works at the step start: drive, loads without potential, "
+          "dissipated"),
+    Field("ke0", "f", (1,), "kinetic energy at the step start"),
+    Field("pe0", "f", (1,), "potential energy at the step start"),
+    Field("clos0", "f", (1,), "loop-closure residual at the step start"),
+    Field("qual0", "f", (1,), "quality index at the step start"),
+    Field("law0", "f", ("nlaw",), "law values at the step start"),
+    Field("mt", "f", ("nstage",), "times of the SGC motion rows asked of the handler"),
+    Field("nmt", "i", (1,), "number of them"),
+    Field("ms", "f", ("nstage", "ns", 3), "SGC position, rate, acceleration at each stage "
+          "time (the last row also the step end)"),
+    # the stages
+    Field("kx", "f", ("nstage", "nq"), "stage derivatives of the FGC positions"),
+    Field("kv", "f", ("nstage", "nq"), "stage derivatives of the FGC rates"),
+    Field("kw", "f", ("nstage", 3), "stage powers"),
+    Field("xs", "f", ("nq",), "FGC positions of a stage"),
+    Field("vs", "f", ("nq",), "FGC rates of a stage"),
+    Field("ws", "f", (3,), "works of a stage"),
+    Field("xe", "f", ("nq",), "the book step's predicted end (book_mid)"),
+    Field("ve", "f", ("nq",), "its rates"),
+    Field("ke", "f", (1,), "kinetic energy of the stage last evaluated"),
+    Field("pe", "f", (1,), "potential energy of the stage last evaluated"),
+    Field("closure", "f", (1,), "loop-closure residual of the stage last evaluated"),
+    Field("quality", "f", (1,), "quality index of the last closure"),
+    Field("lscale", "f", (1,), "size of the generalized loads of the last evaluation"),
+    Field("mscale", "f", (1,), "largest diagonal of M_FF at the first evaluation with "
+          "these coordinates (0: not yet)"),
+    # the equations at a stage
+    Field("psid", "f", ("nq",), "generalized rates"),
+    Field("aF", "f", ("nq",), "FGC accelerations"),
+    Field("rhs", "f", ("nq",), "right-hand side"),
+    Field("M", "f", ("nq", "nq"), "mass matrix of the generalized coordinates"),
+    Field("c", "f", ("nq",), "velocity products"),
+    Field("Q", "f", ("nq",), "generalized forces"),
+    Field("Lc", "f", ("nq", "nq"), "Cholesky factor of M_FF"),
+    Field("pw", "f", (3,), "stage powers"),
+    Field("ag", "f", ("nq",), "generalized accelerations (column order)"),
+    Field("keep", "b", ("nq",), "scratch"),
+    # the book's step
+    Field("have_lin", "b", (1,), "the linear model of this step start is made"),
+    Field("law_ok", "b", (1,), "its closed postures are whole (the laws' slopes can be "
+          "taken)"),
+    Field("Ab", "f", ("n", "n"), "the augmented matrix (14.11)"),
+    Field("Eb", "f", ("n", "n"), "its exponential"),
+    Field("X1", "f", ("n", "n"), "scratch"),
+    Field("X2", "f", ("n", "n"), "scratch"),
+    Field("X3", "f", ("n", "n"), "scratch"),
+    Field("ap", "f", ("nq",), "predicted accelerations at the step end"),
+    Field("lopts", "f", (5,), "options of the linearization (linear.linearize_kernel)"),
+    Field("lcols", "i", ("nq",), "column order of the linearization"),
+    Field("iF", "i", ("nq",), "places of the FGCs in it"),
+    Field("iS", "i", ("nq",), "places of the SGCs in it"),
+    Field("gF", "f", (3, "nq"), "forcing terms of the FGC rows"),
+    Field("Minv", "f", ("nq", "nq"), "M_FF^-1"),
+    Field("wq", "f", (3,), "powers at the middle (book) or over the Gauss nodes"),
+    Field("fscale", "f", (1,), "largest generalized force met (force error percent)"),
+    # the step just taken, for the outputs inside it
+    Field("tprev", "f", (1,), "its start"),
+    Field("xprev", "f", ("nq",), "FGC positions at its start"),
+    Field("vprev", "f", ("nq",), "FGC rates at its start"),
+    Field("aprev", "f", ("nq",), "FGC accelerations at its start"),
+    Field("wprev", "f", (3,), "works at its start"),
+    Field("pprev", "f", (3,), "powers at its start"),
+    # the run's account
+    Field("steps", "i", (1,), "steps taken"),
+    Field("rejects", "i", (1,), "attempts rejected"),
+    Field("evals", "i", (1,), "evaluations of the equations"),
+    Field("closes", "i", (1,), "closures of the loops"),
+    Field("forced", "i", (1,), "steps accepted at the smallest length above the tolerance"),
+    Field("err", "f", (1,), "error of the last attempt against its tolerance"),
+    Field("smallest", "f", (1,), "smallest step taken"),
+    Field("largest", "f", (1,), "largest step taken"),
+    Field("qref", "f", (1,), "quality index at the last choice of the FGCs"),
+    Field("why", "i", (1,), "why the last attempt failed (Stage)"),
+    Field("tfail", "f", (1,), "time of an output that failed (NaN: the step's)"),
+)
+
+KStep = namedtuple("KStep", [f.name for f in WORK_FIELDS])  # type: ignore[misc]
+#: ``step_views(W.P)``: the :data:`WORK_FIELDS` of a run as named views, inside a kernel
+step_views = packed_views(layout_of(WORK_FIELDS), KStep)
+
+
 class Work(NamedTuple):
-    """The arrays of one integration (internal units; nq joint variables, nS SGCs).
+    """The scratch of one integration: ``P`` the packed :data:`WORK_FIELDS` (unpacked
+    in a kernel by :func:`step_views`), ``lin`` and ``lwork`` the linear model and
+    the scratch of :func:`~openimp.dynamics.linear.linearize_kernel`."""
 
-    st, it: scalars (indices above).  gscale (nq,): model units of a generalized
-    force per internal unit (L for lengths, L^2 for angles).  role (nq,): 0
-    dependent, 1 FGC, 2 SGC.  fcols (nq,): the FGC columns, ascending, nF used;
-    scols (nS,): the SGC columns, ascending.  q0, qd0, qdd0 (nq,): the step
-    start.  x0, v0 (nq,): its FGC positions and rates; w0 (3,): works (drive,
-    loads without potential, dissipated).  ms (7, nS, 3): SGC position, rate,
-    acceleration at each stage time (the last row also the step end).  kx,
-    kv (7, nq), kw (7, 3): stage derivatives; ke_pe (7, 2): stage energies.
-    xs, vs (nq,), ws (3,): a stage's state; xe, ve (nq,): the step's error (rk), the
-    predicted end (book, :func:`book_mid`).
-    psid, aF, rhs (nq,); M, c, Q, Lc (mass, velocity products, forces,
-    Cholesky scratch); pw (3,) stage powers; ag (nq,) generalized
-    accelerations; keep (nq,) bool scratch.  Book step: lin (M, D, K, F, P2,
-    A2, Gl, qpl, qdpl) and lwork of :func:`~openimp.dynamics.linear.linearize_kernel`;
-    Ab (n, n), Eb, X1, X2, X3 with n = 2 nq + 3: the augmented matrix, its
-    exponential and scratch; ap (nq,) predicted accelerations; lopts (5,) the
-    options of the linearization; lcols (nq,) its column order; iF, iS (nq,)
-    the places of the FGCs and SGCs in it; gF (3, nq) the forcing terms;
-    Minv (nq, nq) M_FF^-1.  xprev, vprev, aprev (nq,), wprev, pprev (3,): the FGC
-    positions, rates, accelerations, the works and powers at the start of the
-    step just taken (w.st[TPREV]), for the outputs inside it.  wq (3,): the powers
-    summed over the Gauss nodes of :func:`dense_works`.
-    """
-
-    st: np.ndarray
-    it: np.ndarray
-    gscale: np.ndarray
-    role: np.ndarray
-    fcols: np.ndarray
-    scols: np.ndarray
-    q0: np.ndarray
-    qd0: np.ndarray
-    qdd0: np.ndarray
-    x0: np.ndarray
-    v0: np.ndarray
-    w0: np.ndarray
-    ms: np.ndarray
-    kx: np.ndarray
-    kv: np.ndarray
-    kw: np.ndarray
-    ke_pe: np.ndarray
-    xs: np.ndarray
-    vs: np.ndarray
-    ws: np.ndarray
-    xe: np.ndarray
-    ve: np.ndarray
-    psid: np.ndarray
-    aF: np.ndarray
-    rhs: np.ndarray
-    M: np.ndarray
-    c: np.ndarray
-    Q: np.ndarray
-    Lc: np.ndarray
-    pw: np.ndarray
-    ag: np.ndarray
-    keep: np.ndarray
+    P: tuple
     lin: tuple
     lwork: tuple
-    Ab: np.ndarray
-    Eb: np.ndarray
-    X1: np.ndarray
-    X2: np.ndarray
-    X3: np.ndarray
-    ap: np.ndarray
-    lopts: np.ndarray
-    lcols: np.ndarray
-    iF: np.ndarray
-    iS: np.ndarray
-    gF: np.ndarray
-    Minv: np.ndarray
-    xprev: np.ndarray
-    vprev: np.ndarray
-    aprev: np.ndarray
-    wprev: np.ndarray
-    pprev: np.ndarray
-    wq: np.ndarray
+
+
+class OutputRows(NamedTuple):
+    """The output rows a run writes (internal units; rows of the output times)."""
+
+    #: (rows,) time
+    t: np.ndarray
+    #: (rows, nq) joint variables, rates, accelerations
+    q: np.ndarray
+    qd: np.ndarray
+    qdd: np.ndarray
+    #: (rows, nq) bool: the FGCs
+    fgc: np.ndarray
+    #: (rows,) quality index and loop-closure residual
+    quality: np.ndarray
+    closure: np.ndarray
+    #: (rows, 5): kinetic, potential, drive work, load work, dissipated
+    energy: np.ndarray
+
+
+class Outputs(NamedTuple):
+    """The outputs of a run: all the times, the next one to record (``k``, (1,)), the
+    rows held (``rows``, of the outputs from ``base``, at most ``cap`` of them)."""
+
+    times: np.ndarray
+    k: np.ndarray
+    rows: OutputRows
+    base: int
+    cap: int
+
+
+def work_arrays(W: Work) -> KStep:
+    """The fields of W as named numpy views (Python side)."""
+    return KStep(*views(WORK_FIELDS, W.P))
 
 
 def make_work(nq: int, ns: int, nb: int, nlaw: int) -> Work:
     """Zeroed arrays of :class:`Work` for nq joint variables, ns SGCs, nb bodies."""
     f = np.zeros
-    n = 2 * nq + 3
     lin = (f((nq, nq)), f((nq, nq)), f((nq, nq)), f(nq), f((nq, nq, nq)), f((nb, nq, nq, 6)),
            f((nq, max(nlaw, 1))), f((nq, 4, nq)), f((nq, 4, nq)))
     lwork = (f(nq), f(nq), f(nq), f(nq), f(nq), f(nq), f(nq), f(nq), f((nb, 6)), f(nq),
              f(nq), np.zeros(nq, np.bool_), f((nq, nq)))
-    return Work(f(NST), np.zeros(NIT, np.int64), f(nq), np.zeros(nq, np.int64),
-                np.zeros(nq, np.int64), np.zeros(ns, np.int64), f(nq), f(nq), f(nq), f(nq),
-                f(nq), f(3), f((NSTAGE, ns, 3)), f((NSTAGE, nq)), f((NSTAGE, nq)),
-                f((NSTAGE, 3)), f((NSTAGE, 2)), f(nq), f(nq), f(3), f(nq), f(nq), f(nq), f(nq),
-                f(nq), f((nq, nq)), f(nq), f(nq), f((nq, nq)), f(3), f(nq),
-                np.zeros(nq, np.bool_), lin, lwork, f((n, n)), f((n, n)), f((n, n)),
-                f((n, n)), f((n, n)), f(nq), f(5), np.zeros(nq, np.int64),
-                np.zeros(nq, np.int64), np.zeros(nq, np.int64), f((3, nq)), f((nq, nq)),
-                f(nq), f(nq), f(nq), f(3), f(3), f(3))
+    sizes = {"nq": nq, "ns": ns, "nstage": NSTAGE, "n": 2 * nq + 3, "nlaw": max(nlaw, 1)}
+    return Work(allocate(WORK_FIELDS, sizes), lin, lwork)
 
 
 # ------------------------------------------------------------------ the stage
 @njit(nrt=False)
-def close_stage(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, w: Work,
+def close_stage(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, W: Work,
                 dt: float, srow: int) -> int:
     """Close the loops at the stage state: every joint variable predicted from the step
     start over dt (second-order Taylor), the FGCs at w.xs, the SGCs at w.ms[srow];
     Newton holding both.  Returns OK or NO_CLOSURE."""
+    w = step_views(W.P)
     for a in range(S.q.shape[0]):
         S.q[a] = w.q0[a] + dt * w.qd0[a] + 0.5 * dt * dt * w.qdd0[a]
-    return _close(KP, DP, S, gen, w, srow)
+    return _close(KP, DP, S, gen, W, srow)
 
 
 @njit(nrt=False)
-def close_near(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, w: Work,
+def close_near(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, W: Work,
                dt: float, srow: int) -> int:
     """:func:`close_stage` predicted from the posture last evaluated in S (its q, qd,
     qdd) over dt: a point near it, not near the step start."""
     for a in range(S.q.shape[0]):
         S.q[a] += dt * S.qd[a] + 0.5 * dt * dt * S.qdd[a]
-    return _close(KP, DP, S, gen, w, srow)
+    return _close(KP, DP, S, gen, W, srow)
 
 
 @njit(nrt=False, inline="always")
-def _close(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, w: Work,
+def _close(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, W: Work,
            srow: int) -> int:
     """Newton from the predicted S.q holding the FGCs at w.xs and the SGCs at
-    w.ms[srow]; the quality index into w.st[QUALITY].  OK or NO_CLOSURE."""
+    w.ms[srow]; the quality index into w.quality[0].  OK or NO_CLOSURE."""
+    w = step_views(W.P)
     nq = S.q.shape[0]
-    nF = w.it[NF]
+    nF = w.nF[0]
     for a in range(nq):
         w.keep[a] = S.sgc[a]
     for j in range(nF):
@@ -218,13 +368,13 @@ def _close(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, w: Work,
         S.sgc[w.fcols[j]] = True
     for s in range(w.scols.shape[0]):
         S.q[w.scols[s]] = w.ms[srow, s, 0]
-    res = newton(KP, DP, S, gen, w.st[CTOL], w.st[PTOL], w.it[MAXIT], False)
+    status, _, _, quality, _ = newton(KP, DP, S, gen, w.ctol[0], w.ptol[0], w.maxit[0], False)
     for a in range(nq):
         S.sgc[a] = w.keep[a]
-    w.it[CLOSES] += 1
-    if res[0] != 0:
+    w.closes[0] += 1
+    if status != 0:
         return NO_CLOSURE
-    w.st[QUALITY] = res[3]
+    w.quality[0] = quality
     return OK
 
 
@@ -268,12 +418,12 @@ def _cholesky_solve(A: np.ndarray, n: int, b: np.ndarray, x: np.ndarray, tol: fl
 
 
 @njit(nrt=False, inline="always")
-def _powers(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, nf: int,
-            cols: np.ndarray, w: Work) -> None:
+def _powers(YP: tuple, ZP: tuple, S: tuple, nf: int, cols: np.ndarray, W: Work,
+            gp: float) -> None:
     """w.pw = (drive power, power of the loads without potential, dissipation rate)
-    at the evaluated stage; w.ag holds the generalized accelerations (cols order)."""
-    K = model_views(KP)
-    d = data_views(DP)
+    at the evaluated stage; w.ag holds the generalized accelerations (cols order), gp
+    the power of gravity (:func:`~openimp.dynamics.loads.applied_loads`)."""
+    w = step_views(W.P)
     y = dyn_views(YP)
     z = dyn_data_views(ZP)
     M, c, Q = w.M, w.c, w.Q
@@ -287,18 +437,7 @@ def _powers(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, nf: int,
                 f += M[k, m] * w.ag[m]
             drive += f * w.psid[cols[k]]
     # the power of the loads with a potential: gravity and linear springs (-dV/dt)
-    g = y.grav
-    cons = 0.0
-    for b in range(K.order.shape[0]):
-        G = z.Gb[b]
-        V = d.V[b]
-        m = G[3, 3]
-        if m == 0.0:
-            continue
-        vx = m * V[0] + V[4] * G[2, 3] - V[5] * G[1, 3]
-        vy = m * V[1] + V[5] * G[0, 3] - V[3] * G[2, 3]
-        vz = m * V[2] + V[3] * G[1, 3] - V[4] * G[0, 3]
-        cons += g[0] * vx + g[1] * vy + g[2] * vz
+    cons = gp
     damp = 0.0
     for a in range(S.q.shape[0]):
         sl = y.qlaw[a]
@@ -311,22 +450,25 @@ def _powers(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, nf: int,
             cons += z.epower[i]
         elif y.ekind[i] == DAMPER:
             damp += z.epower[i]
-    w.pw[0] = drive
-    w.pw[1] = applied - cons - damp
-    w.pw[2] = -damp
+    w.pw[DRIVE] = drive
+    w.pw[LOADS] = applied - cons - damp
+    w.pw[DISSIPATED] = -damp
 
 
 @njit(nrt=False)
 def evaluate(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | None,
-             w: Work, srow: int) -> int:
+             W: Work, srow: int) -> int:
     """The equations of motion at the closed stage posture S.q with FGC rates w.vs and
     the SGC motion w.ms[srow]: w.aF (nF,) from M_FF psi''_F = Q_F - c_F - M_FS psi''_S
     (10.15), S.qd and the full joint accelerations S.qdd, the powers w.pw, and
-    w.st[KE], w.st[PE].  Returns OK, SINGULAR_MASS or LOST_COORDINATES (the
-    elimination no longer leaves exactly the FGCs and SGCs)."""
+    w.ke[0], w.pe[0].  The load laws (Python) are asked for their values once the
+    elimination has given the joint rates they read (:data:`Hook.LAWS`).  Returns OK,
+    SINGULAR_MASS, LOST_COORDINATES (the elimination no longer leaves exactly the FGCs
+    and SGCs) or PYTHON (a law failed)."""
+    w = step_views(W.P)
     z = dyn_data_views(ZP)
     nq = S.q.shape[0]
-    nF = w.it[NF]
+    nF = w.nF[0]
     nS = w.scols.shape[0]
     for a in range(nq):
         w.psid[a] = 0.0
@@ -336,12 +478,15 @@ def evaluate(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarr
         S.sgc[w.fcols[j]] = True
     for s in range(nS):
         w.psid[w.scols[s]] = w.ms[srow, s, 1]
-    nf, _, ke, pe = eom(KP, DP, YP, ZP, S, gen, w.st[PTOL], w.psid, (w.M, w.c, w.Q))
+    _, nf = eom_rates(KP, DP, ZP, S, gen, w.ptol[0], w.psid)
     for a in range(nq):
         S.sgc[a] = w.keep[a]
-    w.it[EVALS] += 1
+    w.evals[0] += 1
     if nf != nF + nS:
         return LOST_COORDINATES
+    if w.laws[0] and call_hook(w.hook[0], H_LAWS) != 0:
+        return PYTHON
+    ke, pe, gp = eom_loads(KP, DP, YP, ZP, S, nf, (w.M, w.c, w.Q))
     cols = z.cols[:nf]
     # M_FF into Lc, the right-hand side into rhs (FGC order = column order)
     i = 0
@@ -360,10 +505,10 @@ def evaluate(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarr
                 s += 1
         w.rhs[i] = r
         i += 1
-    if w.st[MSCALE] <= 0.0:  # the first evaluation with these coordinates
+    if w.mscale[0] <= 0.0:  # the first evaluation with these coordinates
         for i in range(nF):
-            w.st[MSCALE] = max(w.st[MSCALE], w.Lc[i, i])
-    if not _cholesky_solve(w.Lc, nF, w.rhs, w.aF, w.st[MTOL], w.st[MSCALE]):
+            w.mscale[0] = max(w.mscale[0], w.Lc[i, i])
+    if not _cholesky_solve(w.Lc, nF, w.rhs, w.aF, w.mtol[0], w.mscale[0]):
         return SINGULAR_MASS
     i = 0
     s = 0
@@ -380,7 +525,7 @@ def evaluate(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarr
         for k in range(nf):
             acc += G[a, k] * w.ag[k]
         S.qdd[a] = acc
-    _powers(KP, DP, YP, ZP, S, nf, cols, w)
+    _powers(YP, ZP, S, nf, cols, W, gp)
     # the scale of the generalized loads term by term (the net force vanishes at rest)
     big = 0.0
     for k in range(nf):
@@ -395,27 +540,28 @@ def evaluate(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarr
         for a in range(nq):
             sc += abs(G[a, k] * z.fq[a])
         big = max(big, sc * w.gscale[cols[k]])
-    w.st[LSCALE] = big
-    w.st[KE] = ke
-    w.st[PE] = pe
+    w.lscale[0] = big
+    w.ke[0] = ke
+    w.pe[0] = pe
     d = data_views(DP)
     res = 0.0
     for r in range(d.E.shape[0]):
         res = max(res, abs(d.E[r]))
-    w.st[CLOSURE] = res
+    w.closure[0] = res
     return OK
 
 
 @njit(nrt=False)
-def start_state(S: tuple, w: Work) -> None:
+def start_state(S: tuple, W: Work) -> None:
     """Take the evaluated posture S (q, qd, qdd) as the step start and its derivatives
     as the first stage (the FGCs' rates and accelerations, coordinate-free)."""
+    w = step_views(W.P)
     nq = S.q.shape[0]
     for a in range(nq):
         w.q0[a] = S.q[a]
         w.qd0[a] = S.qd[a]
         w.qdd0[a] = S.qdd[a]
-    for j in range(w.it[NF]):
+    for j in range(w.nF[0]):
         c = w.fcols[j]
         w.x0[j] = S.q[c]
         w.v0[j] = S.qd[c]
@@ -423,87 +569,79 @@ def start_state(S: tuple, w: Work) -> None:
         w.kv[0, j] = S.qdd[c]
     for k in range(3):
         w.kw[0, k] = w.pw[k]
-    w.ke_pe[0, 0] = w.st[KE]
-    w.ke_pe[0, 1] = w.st[PE]
-    w.st[CLOS0] = w.st[CLOSURE]
-    w.st[QUAL0] = w.st[QUALITY]
-    w.it[HAVE_LIN] = 0
+    w.ke0[0] = w.ke[0]
+    w.pe0[0] = w.pe[0]
+    w.clos0[0] = w.closure[0]
+    w.qual0[0] = w.quality[0]
+    w.have_lin[0] = False
 
 
 @njit(nrt=False)
-def choose(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, w: Work) -> bool:
+def choose(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, W: Work) -> bool:
     """Choose the FGCs again at the step start (the posture S.q = w.q0): the columns the
     elimination leaves free with only the SGCs specified, unless the current set is
     still good (its quality index at least half the best: no switching back and
     forth between equally good coordinates).  The runs call it when the quality
-    index of the current set (w.st[QUALITY], from the last closure) has fallen
-    below half its value at the last choice (w.st[QREF]).  On a change the FGC state is
+    index of the current set (w.quality[0], from the last closure) has fallen
+    below half its value at the last choice (w.qref[0]).  On a change the FGC state is
     re-read from the joint rates and accelerations (w.q0, w.qd0, w.qdd0).
     Returns True when the set changed."""
-    d = data_views(DP)
+    w = step_views(W.P)
     nq = S.q.shape[0]
     for a in range(nq):
         S.q[a] = w.q0[a]
     position(KP, DP, S, gen, 1)
     jacobian(KP, DP, S, gen)
-    rank, quality, _ = eliminate(DP, S.sgc, w.st[PTOL])
-    for a in range(nq):
-        w.keep[a] = False
-    for k in range(rank):
-        w.keep[d.pcol[k]] = True
-    nF = 0
+    rank, quality, _ = eliminate(DP, S.sgc, w.ptol[0])
+    nF = free_columns(DP, S.sgc, rank, w.keep)
     same = True
     for a in range(nq):
-        if not (S.sgc[a] or w.keep[a]):
-            if w.role[a] != 1:
-                same = False
-            nF += 1
-    if same and nF == w.it[NF]:
-        w.st[QREF] = quality
+        if w.keep[a] and w.role[a] != 1:
+            same = False
+    if same and nF == w.nF[0]:
+        w.qref[0] = quality
         return False
     # the current set held: still regular?
-    for j in range(w.it[NF]):
+    for j in range(w.nF[0]):
         S.sgc[w.fcols[j]] = True
-    rank_c, quality_c, _ = eliminate(DP, S.sgc, w.st[PTOL])
-    for j in range(w.it[NF]):
+    rank_c, quality_c, _ = eliminate(DP, S.sgc, w.ptol[0])
+    for j in range(w.nF[0]):
         S.sgc[w.fcols[j]] = False
-    if rank_c == rank and nF == w.it[NF] and quality_c >= 0.5 * quality:
-        w.st[QREF] = quality_c
+    if rank_c == rank and nF == w.nF[0] and quality_c >= 0.5 * quality:
+        w.qref[0] = quality_c
         return False
-    w.st[QREF] = quality
+    w.qref[0] = quality
     # the new set: FGCs are the columns neither specified nor pivoted
-    eliminate(DP, S.sgc, w.st[PTOL])
-    for a in range(nq):
-        w.keep[a] = False
-    for k in range(rank):
-        w.keep[d.pcol[k]] = True
+    eliminate(DP, S.sgc, w.ptol[0])
+    free_columns(DP, S.sgc, rank, w.keep)
     nF = 0
     for a in range(nq):
         if w.role[a] == 1:
             w.role[a] = 0
-        if not (S.sgc[a] or w.keep[a]):
+        if w.keep[a]:
             w.role[a] = 1
             w.fcols[nF] = a
             nF += 1
-    w.it[NF] = nF
-    w.st[MSCALE] = 0.0  # the scale of the new M_FF, at its first evaluation
+    w.nF[0] = nF
+    w.mscale[0] = 0.0  # the scale of the new M_FF, at its first evaluation
     for j in range(nF):
         c = w.fcols[j]
         w.x0[j] = w.q0[c]
         w.v0[j] = w.qd0[c]
         w.kx[0, j] = w.qd0[c]
         w.kv[0, j] = w.qdd0[c]
-    w.it[HAVE_LIN] = 0
+    w.have_lin[0] = False
     return True
 
 
 # ------------------------------------------------------------------ Dormand-Prince 5(4)
 @njit(nrt=False)
-def rk_stage_state(w: Work, i: int) -> float:
-    """w.xs, w.vs, w.ws = the state of stage i of a step of length w.st[H]; returns its
+def rk_stage_state(W: Work, i: int) -> float:
+    """w.xs, w.vs, w.ws = the state of stage i of a step of length w.h[0]; returns its
     time offset."""
-    h = w.st[H]
-    for j in range(w.it[NF]):
+    w = step_views(W.P)
+    h = w.h[0]
+    for j in range(w.nF[0]):
         sx = w.x0[j]
         sv = w.v0[j]
         for m in range(i):
@@ -522,69 +660,71 @@ def rk_stage_state(w: Work, i: int) -> float:
 
 
 @njit(nrt=False)
-def keep_stage(S: tuple, w: Work, i: int) -> None:
+def keep_stage(S: tuple, W: Work, i: int) -> None:
     """Store the derivatives of the evaluated stage i (rates, accelerations, powers)."""
-    for j in range(w.it[NF]):
+    w = step_views(W.P)
+    for j in range(w.nF[0]):
         w.kx[i, j] = w.vs[j]
         w.kv[i, j] = w.aF[j]
     for k in range(3):
         w.kw[i, k] = w.pw[k]
-    w.ke_pe[i, 0] = w.st[KE]
-    w.ke_pe[i, 1] = w.st[PE]
 
 
 @njit(nrt=False)
 def rk_stage(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | None,
-             w: Work, i: int) -> int:
+             W: Work, i: int) -> int:
     """Stage i of the step: its state, the loops closed, the equations evaluated."""
-    dt = rk_stage_state(w, i)
-    S.t[0] = w.st[T] + dt
-    st = close_stage(KP, DP, S, gen, w, dt, i)
+    w = step_views(W.P)
+    dt = rk_stage_state(W, i)
+    S.t[0] = w.t[0] + dt
+    st = close_stage(KP, DP, S, gen, W, dt, i)
     if st != OK:
         return st
-    st = evaluate(KP, DP, YP, ZP, S, gen, w, i)
+    st = evaluate(KP, DP, YP, ZP, S, gen, W, i)
     if st == OK:
-        keep_stage(S, w, i)
+        keep_stage(S, W, i)
     return st
 
 
 @njit(nrt=False)
-def rk_finish(S: tuple, w: Work) -> int:
+def rk_finish(S: tuple, W: Work) -> int:
     """The error of the step just evaluated (all 7 stages; S at its end): accept it (the
     end becomes the next start) or reject it; propose the next step.  Returns
     ACCEPTED or REJECTED."""
-    h = w.st[H]
+    w = step_views(W.P)
+    h = w.h[0]
     err = 0.0
-    nF = w.it[NF]
+    nF = w.nF[0]
     for j in range(nF):
         ex = 0.0
         ev = 0.0
         for m in range(NSTAGE):
             ex += RK_E[m] * w.kx[m, j]
             ev += RK_E[m] * w.kv[m, j]
-        sx = w.st[ATOL] + w.st[RTOL] * max(abs(w.x0[j]), abs(w.xs[j]))
-        sv = w.st[ATOL] + w.st[RTOL] * max(abs(w.v0[j]), abs(w.vs[j]))
+        sx = w.atol[0] + w.rtol[0] * max(abs(w.x0[j]), abs(w.xs[j]))
+        sv = w.atol[0] + w.rtol[0] * max(abs(w.v0[j]), abs(w.vs[j]))
         err += (h * ex / sx) ** 2 + (h * ev / sv) ** 2
     err = math.sqrt(err / max(2 * nF, 1))
-    w.st[ERR] = err
-    if err <= 1.0 or h <= w.st[HMIN] * (1.0 + 1e-12):
+    w.err[0] = err
+    if err <= 1.0 or h <= w.hmin[0] * (1.0 + 1e-12):
         if err > 1.0:
-            w.it[FORCED] += 1
+            w.forced[0] += 1
         fac = 5.0 if err == 0.0 else min(5.0, max(0.2, 0.9 * err ** -0.2))
-        w.st[HNEXT] = h * fac
-        _accept(S, w, h)
+        w.hnext[0] = h * fac
+        _accept(S, W, h)
         return ACCEPTED
-    w.st[HNEXT] = h * max(0.2, 0.9 * err ** -0.2)
-    w.it[REJECTS] += 1
+    w.hnext[0] = h * max(0.2, 0.9 * err ** -0.2)
+    w.rejects[0] += 1
     return REJECTED
 
 
 @njit(nrt=False, inline="always")
-def _accept(S: tuple, w: Work, h: float) -> None:
+def _accept(S: tuple, W: Work, h: float) -> None:
     """The step of length h is taken: S (evaluated at its end, works w.ws) is the next
     start; the old start is kept for the outputs inside the step."""
-    w.st[TPREV] = w.st[T]
-    for j in range(w.it[NF]):
+    w = step_views(W.P)
+    w.tprev[0] = w.t[0]
+    for j in range(w.nF[0]):
         w.xprev[j] = w.x0[j]
         w.vprev[j] = w.v0[j]
         w.aprev[j] = w.kv[0, j]
@@ -592,28 +732,34 @@ def _accept(S: tuple, w: Work, h: float) -> None:
         w.wprev[k] = w.w0[k]
         w.pprev[k] = w.kw[0, k]
         w.w0[k] = w.ws[k]
-    w.st[T] += h
-    w.it[STEPS] += 1
-    w.st[SMALLEST] = min(w.st[SMALLEST], h)
-    w.st[LARGEST] = max(w.st[LARGEST], h)
-    start_state(S, w)
+    w.t[0] += h
+    w.steps[0] += 1
+    w.smallest[0] = min(w.smallest[0], h)
+    w.largest[0] = max(w.largest[0], h)
+    start_state(S, W)
 
 
 @njit(nrt=False)
 def rk_attempt(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | None,
-               w: Work) -> int:
-    """One attempt of a step of length w.st[H] from the start in w (the SGC motion at the
+               W: Work) -> int:
+    """One attempt of a step of length w.h[0] from the start in w (the SGC motion at the
     stage times in w.ms): ACCEPTED, REJECTED (error, or a stage could not be closed or
-    evaluated; w.it[WHY] says which) with w.st[HNEXT] proposed."""
-    w.it[WHY] = OK
+    evaluated; w.why[0] says which) with w.hnext[0] proposed; FAILED when a motion
+    (Python) failed."""
+    w = step_views(W.P)
+    w.why[0] = OK
+    for i in range(NSTAGE):
+        w.mt[i] = w.t[0] + RK_C[i] * w.h[0]
+    if motion_rows(W, NSTAGE) != OK:
+        return FAILED
     for i in range(1, NSTAGE):
-        st = rk_stage(KP, DP, YP, ZP, S, gen, w, i)
+        st = rk_stage(KP, DP, YP, ZP, S, gen, W, i)
         if st != OK:
-            w.it[WHY] = st
-            w.st[HNEXT] = 0.5 * w.st[H]
-            w.it[REJECTS] += 1
+            w.why[0] = st
+            w.hnext[0] = 0.5 * w.h[0]
+            w.rejects[0] += 1
             return REJECTED
-    return rk_finish(S, w)
+    return rk_finish(S, W)
 
 
 # ------------------------------------------------------------------ the book's step
@@ -659,16 +805,17 @@ def expm(A: np.ndarray, n: int, E: np.ndarray, X1: np.ndarray, X2: np.ndarray) -
 
 @njit(nrt=False)
 def book_linearize(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
-                   gen: np.ndarray | None, w: Work) -> int:
+                   gen: np.ndarray | None, W: Work) -> int:
     """M, D, K, F of ch 11 (11.7-11.10) at the step start, the FGCs and SGCs held, into
-    w.lin (rows and columns in the column order w.lcols of the FGCs and SGCs), the
-    places of both in w.iF, w.iS and M_FF^-1 in w.Minv.  With w.lopts[4] set the
-    closed postures are kept in w.lin for the derivatives of the load laws,
-    which the caller adds to D and K (laws are Python) when w.it[LAW_OK].  Returns OK,
+    W.lin (rows and columns in the column order w.lcols of the FGCs and SGCs), the
+    places of both in w.iF, w.iS and M_FF^-1 in w.Minv.  With laws the closed
+    postures are kept in W.lin for the derivatives of the load laws, which the
+    handler adds to D and K (:data:`Hook.LAW_TERMS`) when w.law_ok[0].  Returns OK,
     LOST_COORDINATES or SINGULAR_MASS."""
+    w = step_views(W.P)
     z = dyn_data_views(ZP)
     nq = S.q.shape[0]
-    nF = w.it[NF]
+    nF = w.nF[0]
     nS = w.scols.shape[0]
     for a in range(nq):
         S.q[a] = w.q0[a]
@@ -683,9 +830,10 @@ def book_linearize(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
         w.psid[w.scols[s]] = w.ms[0, s, 1]
         w.rhs[w.scols[s]] = w.ms[0, s, 2]
     o = w.lopts
-    o[0] = w.st[PTOL]
-    o[1] = w.st[CTOL]
-    o[2] = H_MOTION
+    o[LIN_PTOL] = w.ptol[0]
+    o[LIN_CTOL] = w.ctol[0]
+    o[LIN_STEP] = H_MOTION
+    o[LIN_KEEP] = 1.0 if w.laws[0] else 0.0  # the closed postures, for the laws' slopes
     # the book's K (11.9) holds at rest; in motion its position derivatives of the
     # inertia and damper terms are added (differences over closed postures), which
     # makes the step second order
@@ -696,25 +844,25 @@ def book_linearize(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
     for s in range(nS):
         if w.ms[0, s, 1] != 0.0 or w.ms[0, s, 2] != 0.0:
             moving = 1.0
-    o[3] = moving  # o[4]: keep the closed postures for the laws' derivatives (the caller's)
-    nf, _, status = linearize_kernel(KP, DP, YP, ZP, S, gen, o, w.psid, w.rhs, w.lin,
-                                     w.lwork)
+    o[LIN_MOVING] = moving
+    nf, _, status = linearize_kernel(KP, DP, YP, ZP, S, gen, o, w.psid, w.rhs, W.lin,
+                                     W.lwork)
     # the closed postures (and their rates) are whole only when every closure converged
-    w.it[LAW_OK] = 1 if status == 0 else 0
+    w.law_ok[0] = status == 0
     if status != 0:  # a closure of the motion terms failed: the book's K at rest
         for a in range(nq):
             S.q[a] = w.q0[a]
-        o[3] = 0.0
-        nf, _, _ = linearize_kernel(KP, DP, YP, ZP, S, gen, o, w.psid, w.rhs, w.lin, w.lwork)
-    if o[3] == 0.0:  # at rest the joint rates at the closed postures are zero (not written)
-        qdpl = w.lin[8]
+        o[LIN_MOVING] = 0.0
+        nf, _, _ = linearize_kernel(KP, DP, YP, ZP, S, gen, o, w.psid, w.rhs, W.lin, W.lwork)
+    if o[LIN_MOVING] == 0.0:  # at rest the joint rates at the closed postures are zero
+        qdpl = W.lin[LIN_QDPL]
         for i in range(qdpl.shape[0]):
             for p in range(qdpl.shape[1]):
                 for a in range(qdpl.shape[2]):
                     qdpl[i, p, a] = 0.0
     for a in range(nq):
         S.sgc[a] = w.keep[a]
-    w.it[EVALS] += 1 + 2 * nf
+    w.evals[0] += 1 + 2 * nf
     if nf != nF + nS:
         return LOST_COORDINATES
     a = 0
@@ -728,33 +876,34 @@ def book_linearize(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
         else:
             w.iS[b] = k
             b += 1
-    M = w.lin[0]
+    M = W.lin[LIN_M]
     for j in range(nF):  # M_FF^-1 column by column
         for i in range(nF):
             for m in range(nF):
                 w.Lc[i, m] = M[w.iF[i], w.iF[m]]
             w.rhs[i] = 1.0 if i == j else 0.0
-        if not _cholesky_solve(w.Lc, nF, w.rhs, w.aF, w.st[MTOL], w.st[MSCALE]):
+        if not _cholesky_solve(w.Lc, nF, w.rhs, w.aF, w.mtol[0], w.mscale[0]):
             return SINGULAR_MASS
         for i in range(nF):
             w.Minv[i, j] = w.aF[i]
-    w.it[HAVE_LIN] = 1
+    w.have_lin[0] = True
     return OK
 
 
 @njit(nrt=False)
-def book_predict(w: Work) -> int:
-    """The linear solution over the step tau = w.st[H] (14.11-14.30, by the exponential
+def book_predict(W: Work) -> int:
+    """The linear solution over the step tau = w.h[0] (14.11-14.30, by the exponential
     of the augmented matrix): the FGC state at the step end into w.xs, w.vs, the
     predicted accelerations v'_F there into w.ap.  The forcing is (11.13) with
     the SGC motion over the step as a quadratic in time (rate, acceleration and
     the jerk between the step's ends, w.ms[0] and w.ms[6]): exact for a linear
     system under such an input, where the book freezes it.  Returns OK or
-    TOO_LARGE (a displacement above w.st[XMAX], the book's step 7)."""
-    M, D, K, F = w.lin[0], w.lin[1], w.lin[2], w.lin[3]
-    nF = w.it[NF]
+    TOO_LARGE (a displacement above w.xmax[0], the book's step 7)."""
+    w = step_views(W.P)
+    M, D, K, F = W.lin[LIN_M], W.lin[LIN_D], W.lin[LIN_K], W.lin[LIN_F]
+    nF = w.nF[0]
     nS = w.scols.shape[0]
-    tau = w.st[H]
+    tau = w.h[0]
     iF, iS, Minv, g = w.iF, w.iS, w.Minv, w.gF
     # forcing of the FGC rows: G(s) = G0 + G1 s + G2 s^2 / 2 (11.13 over the step)
     for i in range(nF):
@@ -815,17 +964,18 @@ def book_predict(w: Work) -> int:
         for m in range(nF):
             acc += Minv[i, m] * (g[0, m] + g[1, m] * tau + 0.5 * g[2, m] * tau * tau)
         w.ap[i] = acc
-    if big > w.st[XMAX]:
+    if big > w.xmax[0]:
         return TOO_LARGE
     return OK
 
 
 @njit(nrt=False)
-def book_mid(w: Work) -> None:
+def book_mid(W: Work) -> None:
     """After :func:`book_predict`: the linear solution at the step's middle into w.xs,
     w.vs (the exponential of half the augmented matrix, w.Ab scaled in place), the
     end's kept in w.xe, w.ve for :func:`book_end`."""
-    nF = w.it[NF]
+    w = step_views(W.P)
+    nF = w.nF[0]
     n = 2 * nF + 3
     for i in range(nF):
         w.xe[i] = w.xs[i]
@@ -840,27 +990,29 @@ def book_mid(w: Work) -> None:
 
 
 @njit(nrt=False)
-def book_end(w: Work) -> None:
+def book_end(W: Work) -> None:
     """The powers evaluated at the step's middle into w.wq (for Simpson's rule in
     :func:`book_finish`); the end's predicted state back into w.xs, w.vs."""
+    w = step_views(W.P)
     for k in range(3):
         w.wq[k] = w.pw[k]
-    for i in range(w.it[NF]):
+    for i in range(w.nF[0]):
         w.xs[i] = w.xe[i]
         w.vs[i] = w.ve[i]
 
 
 @njit(nrt=False)
-def book_finish(S: tuple, w: Work) -> int:
+def book_finish(S: tuple, W: Work) -> int:
     """The force error of the step just taken (S evaluated at its end, section 14.5):
     eps = M_FF (psi''_F - v'_F) in model units against IMP's ZERO (FORCE) =
     (force, percent of the largest generalized force met so far): above twice the
     limit the step is repeated with half the length; above the limit it is kept
     and the next one halved; below 1/8 of it the next one doubles (up to the
     largest step).  Returns ACCEPTED or REJECTED."""
-    nF = w.it[NF]
-    h = w.st[H]
-    M = w.lin[0]
+    w = step_views(W.P)
+    nF = w.nF[0]
+    h = w.h[0]
+    M = W.lin[LIN_M]
     err = 0.0
     fmax = 0.0
     for i in range(nF):
@@ -872,98 +1024,110 @@ def book_finish(S: tuple, w: Work) -> int:
             f += mij * w.aF[j]
         gs = w.gscale[w.fcols[i]]
         err = max(err, abs(e) * gs)
-        fmax = max(fmax, abs(f) * gs, abs(w.lin[3][w.iF[i]]) * gs)
-    w.st[FSCALE] = max(w.st[FSCALE], fmax, w.st[LSCALE])
-    tol = w.st[FABS]
-    pct = 0.01 * w.st[FPCT] * w.st[FSCALE]
+        fmax = max(fmax, abs(f) * gs, abs(W.lin[LIN_F][w.iF[i]]) * gs)
+    w.fscale[0] = max(w.fscale[0], fmax, w.lscale[0])
+    tol = w.fabs[0]
+    pct = 0.01 * w.fpct[0] * w.fscale[0]
     if pct > 0.0:
         tol = min(tol, pct)
     if err != err:  # NaN: the step is unusable
         err = math.inf
-    w.st[ERR] = err / tol
-    if err > 2.0 * tol and h > w.st[HMIN] * (1.0 + 1e-12):
-        w.st[HNEXT] = 0.5 * h
-        w.it[REJECTS] += 1
+    w.err[0] = err / tol
+    if err > 2.0 * tol and h > w.hmin[0] * (1.0 + 1e-12):
+        w.hnext[0] = 0.5 * h
+        w.rejects[0] += 1
         return REJECTED
     if err > 2.0 * tol:
-        w.it[FORCED] += 1
+        w.forced[0] += 1
     if err > tol:
-        w.st[HNEXT] = 0.5 * h
+        w.hnext[0] = 0.5 * h
     elif err < 0.125 * tol:
-        w.st[HNEXT] = 2.0 * h
+        w.hnext[0] = 2.0 * h
     else:
-        w.st[HNEXT] = h
+        w.hnext[0] = h
     if err <= tol:  # a step cut to land on an output: back to the proposal before the cut
-        w.st[HNEXT] = max(w.st[HNEXT], w.st[HPROP])
+        w.hnext[0] = max(w.hnext[0], w.hprop[0])
     # works over the step by Simpson's rule: the powers at its ends and its middle
     # (w.wq, :func:`book_end`), the motion there the linear model's
     for k in range(3):
         w.ws[k] = w.w0[k] + h / 6.0 * (w.kw[0, k] + 4.0 * w.wq[k] + w.pw[k])
-    _accept(S, w, h)
+    _accept(S, W, h)
     return ACCEPTED
 
 
 @njit(nrt=False)
 def book_attempt(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
-                 gen: np.ndarray | None, w: Work) -> int:
-    """One attempt of the book's step of length w.st[H] (section 14.4, steps 4-15): the
+                 gen: np.ndarray | None, W: Work) -> int:
+    """One attempt of the book's step of length w.h[0] (section 14.4, steps 4-15): the
     linearization at the start (once per start), the exponential solution, the
     loops closed at the middle (for the works) and the end, the equations there,
     the force error.  ACCEPTED or
-    REJECTED (w.it[WHY]: TOO_LARGE, NO_CLOSURE, ... or OK for the error test)."""
-    w.it[WHY] = OK
-    if w.it[HAVE_LIN] == 0:
-        st = book_linearize(KP, DP, YP, ZP, S, gen, w)
+    REJECTED (w.why[0]: TOO_LARGE, NO_CLOSURE, ... or OK for the error test); FAILED
+    when the step start cannot be linearized or a motion or law (Python) failed."""
+    w = step_views(W.P)
+    w.why[0] = OK
+    h = w.h[0]
+    for i in range(NSTAGE):  # rows: 0 the start, 1 the middle, the last the end
+        w.mt[i] = w.t[0]
+    w.mt[BOOK_MID] = w.t[0] + 0.5 * h
+    w.mt[NSTAGE - 1] = w.t[0] + h
+    if motion_rows(W, NSTAGE) != OK:
+        return FAILED
+    if not w.have_lin[0]:
+        st = book_linearize(KP, DP, YP, ZP, S, gen, W)
+        if st == OK and w.laws[0] and w.law_ok[0] and call_hook(w.hook[0], H_LAW_TERMS) != 0:
+            st = PYTHON
         if st != OK:
-            w.it[WHY] = st
+            w.why[0] = st
             return FAILED
-    h = w.st[H]
-    st = book_predict(w)
+    st = book_predict(W)
     if st == OK:  # the middle, for the works
-        book_mid(w)
-        S.t[0] = w.st[T] + 0.5 * h
-        st = close_stage(KP, DP, S, gen, w, 0.5 * h, 1)
+        book_mid(W)
+        S.t[0] = w.t[0] + 0.5 * h
+        st = close_stage(KP, DP, S, gen, W, 0.5 * h, BOOK_MID)
     if st == OK:
-        st = evaluate(KP, DP, YP, ZP, S, gen, w, 1)
+        st = evaluate(KP, DP, YP, ZP, S, gen, W, BOOK_MID)
     if st == OK:
-        book_end(w)
-        S.t[0] = w.st[T] + h
-        st = close_stage(KP, DP, S, gen, w, h, NSTAGE - 1)
+        book_end(W)
+        S.t[0] = w.t[0] + h
+        st = close_stage(KP, DP, S, gen, W, h, NSTAGE - 1)
     if st == OK:
-        st = evaluate(KP, DP, YP, ZP, S, gen, w, NSTAGE - 1)
+        st = evaluate(KP, DP, YP, ZP, S, gen, W, NSTAGE - 1)
     if st != OK:
-        w.it[WHY] = st
-        w.st[HNEXT] = 0.5 * w.st[H]
-        w.it[REJECTS] += 1
+        w.why[0] = st
+        w.hnext[0] = 0.5 * w.h[0]
+        w.rejects[0] += 1
         return REJECTED
-    return book_finish(S, w)
+    return book_finish(S, W)
 
 
 # ------------------------------------------------------------------ runs
 @njit(nrt=False)
-def begin_step(w: Work, t_end: float) -> float:
+def begin_step(W: Work, t_end: float) -> float:
     """The length of the next attempt toward t_end (the proposal, at most the largest
     step, stretched by up to 10% to land on t_end, never below the smallest step
-    unless t_end is nearer); into w.st[H]."""
-    t = w.st[T]
-    h = min(w.st[HNEXT], w.st[HMAX])
-    h = max(h, w.st[HMIN])
+    unless t_end is nearer); into w.h[0]."""
+    w = step_views(W.P)
+    t = w.t[0]
+    h = min(w.hnext[0], w.hmax[0])
+    h = max(h, w.hmin[0])
     if t + 1.1 * h >= t_end:
         h = t_end - t
-    w.st[H] = h
+    w.h[0] = h
     return h
 
 
 # ------------------------------------------------------------------ outputs
 @njit(nrt=False)
-def dense_point(w: Work, tk: float) -> float:
+def dense_point(W: Work, tk: float) -> float:
     """The FGC state at tk inside the step just taken, into w.xs, w.vs: the quintic
     Hermite interpolant of the positions through the positions, rates and
     accelerations of both ends (error O(h^6), below the step's own), its
     derivative for the rates; the works into w.ws by the cubic Hermite
     interpolant of works and powers.  Returns tk minus the step's end."""
-    t0 = w.st[TPREV]
-    h = w.st[T] - t0
+    w = step_views(W.P)
+    t0 = w.tprev[0]
+    h = w.t[0] - t0
     th = (tk - t0) / h
     t2 = th * th
     t3 = t2 * th
@@ -981,7 +1145,7 @@ def dense_point(w: Work, tk: float) -> float:
     d3 = 30.0 * t2 - 60.0 * t3 + 30.0 * t4
     d4 = -12.0 * t2 + 28.0 * t3 - 15.0 * t4
     d5 = 1.5 * t2 - 4.0 * t3 + 2.5 * t4
-    for j in range(w.it[NF]):
+    for j in range(w.nF[0]):
         p0, v0, a0 = w.xprev[j], w.vprev[j], w.aprev[j]
         p1, v1, a1 = w.x0[j], w.v0[j], w.kv[0, j]
         w.xs[j] = h0 * p0 + h1 * h * v0 + h2 * h * h * a0 + h3 * p1 + h4 * h * v1 \
@@ -994,16 +1158,17 @@ def dense_point(w: Work, tk: float) -> float:
     c3 = -t2 + t3
     for k in range(3):
         w.ws[k] = c0 * w.wprev[k] + c1 * h * w.pprev[k] + c2 * w.w0[k] + c3 * h * w.kw[0, k]
-    return tk - w.st[T]
+    return tk - w.t[0]
 
 
 @njit(nrt=False)
-def works_change(w: Work) -> bool:
+def works_change(W: Work) -> bool:
     """The works changed over the step just taken by more than round-off (its end and
     stage powers, its work increments against the energies and works): else an
     output inside it needs no quadrature (a conservative system)."""
-    h = w.st[T] - w.st[TPREV]
-    scale = abs(w.ke_pe[0, 0]) + abs(w.ke_pe[0, 1])
+    w = step_views(W.P)
+    h = w.t[0] - w.tprev[0]
+    scale = abs(w.ke0[0]) + abs(w.pe0[0])
     big = 0.0
     for k in range(3):
         scale += abs(w.w0[k])
@@ -1014,121 +1179,138 @@ def works_change(w: Work) -> bool:
 
 
 @njit(nrt=False)
-def works_node(w: Work, tk: float, i: int) -> float:
-    """Gauss node i of [w.st[TPREV], tk]: the FGC state there (:func:`dense_point`);
+def works_node(W: Work, tk: float, i: int) -> float:
+    """Gauss node i of [w.tprev[0], tk]: the FGC state there (:func:`dense_point`);
     returns its time."""
-    tn = w.st[TPREV] + GL_X[i] * (tk - w.st[TPREV])
-    dense_point(w, tn)
+    w = step_views(W.P)
+    tn = w.tprev[0] + GL_X[i] * (tk - w.tprev[0])
+    dense_point(W, tn)
     return tn
 
 
 @njit(nrt=False)
-def works_add(w: Work, i: int) -> None:
+def works_add(W: Work, i: int) -> None:
     """Add the powers w.pw evaluated at Gauss node i to w.wq."""
+    w = step_views(W.P)
     for k in range(3):
         w.wq[k] += GL_W[i] * w.pw[k]
 
 
 @njit(nrt=False)
-def works_at(w: Work, tk: float, ob: tuple, row: int) -> None:
+def works_at(W: Work, tk: float, ob: OutputRows, row: int) -> None:
     """The works of output row ``row`` at tk: the step start's plus the Gauss rule of
-    the powers over [w.st[TPREV], tk] (w.wq; error O(h^7), as the interpolated
+    the powers over [w.tprev[0], tk] (w.wq; error O(h^7), as the interpolated
     motion's)."""
-    OEN = ob[7]
+    w = step_views(W.P)
     for k in range(3):
-        OEN[row, 2 + k] = w.wprev[k] + (tk - w.st[TPREV]) * w.wq[k]
+        ob.energy[row, 2 + k] = w.wprev[k] + (tk - w.tprev[0]) * w.wq[k]
 
 
 @njit(nrt=False)
 def dense_works(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
-                gen: np.ndarray | None, w: Work, tk: float) -> int:
-    """The powers at the 3 Gauss nodes of [w.st[TPREV], tk] along the interpolated
+                gen: np.ndarray | None, W: Work, tk: float) -> int:
+    """The powers at the 3 Gauss nodes of [w.tprev[0], tk] along the interpolated
     motion (loops closed, equations evaluated there; SGCs at w.ms[0]) summed into
     w.wq for :func:`works_at`: the works at an output inside a step, as accurate
     as its motion (the cubic Hermite of the ends' works and powers in
     :func:`dense_point` is O(h^4)).  S is evaluated at tk on entry; the nodes are
     taken back from there, each closed from the last (the step's end may be near
     a limit of travel).  Returns OK or the failure code."""
+    w = step_views(W.P)
     for k in range(3):
         w.wq[k] = 0.0
     t_last = tk
     for i in range(2, -1, -1):
-        tn = works_node(w, tk, i)
+        tn = works_node(W, tk, i)
         S.t[0] = tn
-        st = close_near(KP, DP, S, gen, w, tn - t_last, 0)
+        w.mt[0] = tn
+        if motion_rows(W, 1) != OK:
+            return PYTHON
+        st = close_near(KP, DP, S, gen, W, tn - t_last, 0)
         if st == OK:
-            st = evaluate(KP, DP, YP, ZP, S, gen, w, 0)
+            st = evaluate(KP, DP, YP, ZP, S, gen, W, 0)
         if st != OK:
             return st
-        works_add(w, i)
+        works_add(W, i)
         t_last = tn
     return OK
 
 
 @njit(nrt=False)
-def record(S: tuple, w: Work, ob: tuple, row: int, tk: float, end: bool) -> None:
-    """Output row ``row`` of ob = (t, q, qd, qdd, fgc, quality, closure, energy (5:
-    kinetic, potential, drive work, load work, dissipated)) at tk: the step's end
-    (``end``: the start state in w) or the evaluated S with the works w.ws."""
-    OT, OQ, OQD, OQDD, OF, OQUAL, OCLOS, OEN = ob
-    OT[row] = tk
+def record(S: tuple, W: Work, ob: OutputRows, row: int, tk: float, end: bool) -> None:
+    """Output row ``row`` of ob at tk: the step's end (``end``: the start state in w) or
+    the evaluated S with the works w.ws."""
+    w = step_views(W.P)
+    ob.t[row] = tk
     nq = S.q.shape[0]
     for a in range(nq):
-        OQ[row, a] = w.q0[a] if end else S.q[a]
-        OQD[row, a] = w.qd0[a] if end else S.qd[a]
-        OQDD[row, a] = w.qdd0[a] if end else S.qdd[a]
-        OF[row, a] = w.role[a] == 1
-    OCLOS[row] = w.st[CLOS0] if end else w.st[CLOSURE]
-    OQUAL[row] = w.st[QUAL0] if end else w.st[QUALITY]
-    OEN[row, 0] = w.ke_pe[0, 0] if end else w.st[KE]
-    OEN[row, 1] = w.ke_pe[0, 1] if end else w.st[PE]
+        ob.q[row, a] = w.q0[a] if end else S.q[a]
+        ob.qd[row, a] = w.qd0[a] if end else S.qd[a]
+        ob.qdd[row, a] = w.qdd0[a] if end else S.qdd[a]
+        ob.fgc[row, a] = w.role[a] == 1
+    ob.closure[row] = w.clos0[0] if end else w.closure[0]
+    ob.quality[row] = w.qual0[0] if end else w.quality[0]
+    ob.energy[row, 0] = w.ke0[0] if end else w.ke[0]
+    ob.energy[row, 1] = w.pe0[0] if end else w.pe[0]
     for k in range(3):
-        OEN[row, 2 + k] = w.w0[k] if end else w.ws[k]
+        ob.energy[row, 2 + k] = w.w0[k] if end else w.ws[k]
 
 
 @njit(nrt=False)
 def dense_output(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
-                 gen: np.ndarray | None, w: Work, tk: float, ob: tuple, row: int) -> int:
-    """The output at tk inside the step just taken (SGCs at w.ms[0]): the interpolated
-    FGCs, the loops closed there, the equations evaluated, the row recorded; its
-    works by :func:`dense_works` when they change (kept from the cubic of
-    :func:`dense_point` where a node cannot be closed).  Returns OK or the
+                 gen: np.ndarray | None, W: Work, tk: float, ob: OutputRows, row: int) -> int:
+    """The output at tk inside the step just taken (the SGC motion at tk in w.ms[0]):
+    the interpolated FGCs, the loops closed there, the equations evaluated, the row
+    recorded; its works by :func:`dense_works` when they change (kept from the cubic
+    of :func:`dense_point` where a node cannot be closed).  Returns OK or the
     failure code of the output."""
-    dt = dense_point(w, tk)
+    w = step_views(W.P)
+    dt = dense_point(W, tk)
     S.t[0] = tk
-    st = close_stage(KP, DP, S, gen, w, dt, 0)
+    w.mt[0] = tk
+    st = motion_rows(W, 1)
     if st == OK:
-        st = evaluate(KP, DP, YP, ZP, S, gen, w, 0)
+        st = close_stage(KP, DP, S, gen, W, dt, 0)
     if st == OK:
-        record(S, w, ob, row, tk, False)
-        if works_change(w) and dense_works(KP, DP, YP, ZP, S, gen, w, tk) == OK:
-            works_at(w, tk, ob, row)
+        st = evaluate(KP, DP, YP, ZP, S, gen, W, 0)
+    if st == OK:
+        record(S, W, ob, row, tk, False)
+        if works_change(W) and dense_works(KP, DP, YP, ZP, S, gen, W, tk) == OK:
+            works_at(W, tk, ob, row)
     return st
 
 
 @njit(nrt=False)
 def outputs(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | None,
-            w: Work, tout: np.ndarray, kout: np.ndarray, ob: tuple, base: int) -> int:
-    """Record the outputs tout[kout[0]:] that the step just taken reached (rows from
-    kout[0] - base); returns OK or the failure code of an interpolated one.  The end
-    of the step is recorded from the start state."""
-    t1 = w.st[T]
-    n = tout.shape[0]
-    while kout[0] < n:
-        tk = tout[kout[0]]
+            W: Work, O: Outputs) -> int:
+    """Record the outputs O.times[O.k[0]:] that the step just taken reached (rows from
+    O.k[0] - O.base); returns OK or the failure code of an interpolated one.  The end
+    of the step is recorded from the start state.  The law values of the step's end
+    are kept for the next step (an output inside the step evaluates the laws there)."""
+    w = step_views(W.P)
+    z = dyn_data_views(ZP)
+    for i in range(z.law.shape[0]):
+        w.law0[i] = z.law[i]
+    t1 = w.t[0]
+    n = O.times.shape[0]
+    st = OK
+    while O.k[0] < n:
+        tk = O.times[O.k[0]]
         end = abs(tk - t1) <= 1e-12 * max(1.0, abs(t1))
         if not _reached(tk, t1):
             break
         if end:
-            record(S, w, ob, kout[0] - base, tk, True)
+            record(S, W, O.rows, O.k[0] - O.base, tk, True)
         else:
-            st = dense_output(KP, DP, YP, ZP, S, gen, w, tk, ob, kout[0] - base)
+            st = dense_output(KP, DP, YP, ZP, S, gen, W, tk, O.rows, O.k[0] - O.base)
             if st != OK:
-                w.it[WHY] = st
-                w.st[TFAIL] = tk
-                return st
-        kout[0] += 1
-    return OK
+                w.why[0] = st
+                w.tfail[0] = tk
+                break
+        O.k[0] += 1
+    for i in range(z.law.shape[0]):
+        z.law[i] = w.law0[i]
+    return st
 
 
 @njit(nrt=False, inline="always")
@@ -1138,113 +1320,186 @@ def _reached(tk: float, t1: float) -> bool:
 
 
 @njit(nrt=False)
-def land(w: Work, tout: np.ndarray, kout: np.ndarray) -> None:
+def land(W: Work, O: Outputs) -> None:
     """The book's steps end on the output times: the time to the next output is cut
     into equal steps of at most 1.1 times the proposed one (no short remainder
     step, whose length would set the next proposal; never below the smallest step
-    unless the gap is; the cut proposal kept in w.st[HPROP] for :func:`book_finish`).
+    unless the gap is; the cut proposal kept in w.hprop[0] for :func:`book_finish`).
     Its outputs are then step ends, never interpolated (an interpolant through the
     ends' accelerations carries the stiff modes its step damps)."""
-    w.st[HPROP] = 0.0
-    if kout[0] < tout.shape[0]:
-        gap = tout[kout[0]] - w.st[T]
-        h = w.st[H]
+    w = step_views(W.P)
+    w.hprop[0] = 0.0
+    if O.k[0] < O.times.shape[0]:
+        gap = O.times[O.k[0]] - w.t[0]
+        h = w.h[0]
         if gap > 0.0 and h > 0.0:
             n = max(1.0, math.ceil(gap / (1.1 * h)))
-            if w.st[HMIN] > 0.0 and gap / n < w.st[HMIN]:  # never below the smallest step
-                n = max(1.0, math.floor(gap / w.st[HMIN]))
-            w.st[H] = gap / n
-            if w.st[H] < h:  # cut to land: the next step may go back to the proposal
-                w.st[HPROP] = h
+            if w.hmin[0] > 0.0 and gap / n < w.hmin[0]:  # never below the smallest step
+                n = max(1.0, math.floor(gap / w.hmin[0]))
+            w.h[0] = gap / n
+            if w.h[0] < h:  # cut to land: the next step may go back to the proposal
+                w.hprop[0] = h
 
 
 @njit(nrt=False)
-def fit(w: Work, tout: np.ndarray, kout: np.ndarray, base: int, cap: int) -> bool:
-    """True when the output rows left hold every output the next step (w.st[H]) may
+def fit(W: Work, O: Outputs) -> bool:
+    """True when the output rows left hold every output the next step (w.h[0]) may
     reach; with the rows all free the step is shortened to fit them; False when they
     must be flushed first."""
-    t1 = w.st[T] + w.st[H]
-    k = kout[0]
-    while k < tout.shape[0] and _reached(tout[k], t1):
+    w = step_views(W.P)
+    t1 = w.t[0] + w.h[0]
+    k = O.k[0]
+    while k < O.times.shape[0] and _reached(O.times[k], t1):
         k += 1
-    if k - base <= cap:
+    if k - O.base <= O.cap:
         return True
-    if kout[0] > base:
+    if O.k[0] > O.base:
         return False
-    w.st[H] = tout[base + cap - 1] - w.st[T]
+    w.h[0] = O.times[O.base + O.cap - 1] - w.t[0]
     return True
+
+
+@njit(nrt=False)
+def motion_rows(W: Work, n: int) -> int:
+    """The SGC motions at the times w.mt[:n] into the rows w.ms[:n] when they are Python
+    callables (the handler's :data:`Hook.MOTION`; held SGCs keep their rows).  OK or
+    PYTHON."""
+    w = step_views(W.P)
+    if not w.driven[0]:
+        return OK
+    w.nmt[0] = n
+    if call_hook(w.hook[0], H_MOTION_ROWS) != 0:
+        w.why[0] = PYTHON
+        return PYTHON
+    return OK
+
+
+@njit(nrt=False)
+def restart(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | None,
+            W: Work) -> int:
+    """Evaluate the step start again (at the start of a run, after a change of FGCs with
+    laws, after a law's switch): the FGCs at w.x0, w.v0, the SGC motion at w.t, the
+    loops closed, the equations (the laws' values there), the start taken from it.
+    Returns OK or the failure code."""
+    w = step_views(W.P)
+    for j in range(w.nF[0]):
+        w.xs[j] = w.x0[j]
+        w.vs[j] = w.v0[j]
+    w.mt[0] = w.t[0]
+    st = motion_rows(W, 1)
+    if st == OK:
+        S.t[0] = w.t[0]
+        st = close_stage(KP, DP, S, gen, W, 0.0, 0)
+    if st == OK:
+        st = evaluate(KP, DP, YP, ZP, S, gen, W, 0)
+    if st == OK:
+        start_state(S, W)
+    return st
+
+
+@njit(nrt=False)
+def after_step(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | None,
+               W: Work, O: Outputs, last: bool) -> int:
+    """What follows an accepted step: on the last output time when it is the run's
+    last (``last``), the outputs it passed recorded, the FGCs chosen again when the
+    quality index has halved.  -1 to go on, STOPPED (an output failed) or SWITCHED."""
+    w = step_views(W.P)
+    if last:
+        w.t[0] = O.times[O.times.shape[0] - 1]
+    if outputs(KP, DP, YP, ZP, S, gen, W, O) != OK:
+        return STOPPED
+    if w.qual0[0] < 0.5 * w.qref[0] and choose(KP, DP, S, gen, W):
+        return SWITCHED
+    return -1
 
 
 @njit(nrt=False, inline="always")
 def _after(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | None,
-           w: Work, code: int, h: float, last: bool, t_end: float, tout: np.ndarray,
-           kout: np.ndarray, ob: tuple, base: int) -> int:
-    """What the run loop does after an attempt: -1 to go on, else its return code."""
+           W: Work, code: int, O: Outputs, last: bool) -> int:
+    """What the run loop does after an attempt of length w.h[0]: -1 to go on, else its
+    return code (EVENT: a switching function crossed zero over the accepted step)."""
+    w = step_views(W.P)
     if code == FAILED:
         return STOPPED
     if code == REJECTED:
-        if h <= w.st[HMIN] * (1.0 + 1e-12) or h <= 1e-14 * max(1.0, abs(w.st[T])):
-            if w.it[WHY] == OK:
-                w.it[WHY] = UNDERFLOW
+        h = w.h[0]
+        if h <= w.hmin[0] * (1.0 + 1e-12) or h <= 1e-14 * max(1.0, abs(w.t[0])):
+            if w.why[0] == OK:
+                w.why[0] = UNDERFLOW
             return STOPPED
         return -1
-    if last:
-        w.st[T] = t_end
-    if outputs(KP, DP, YP, ZP, S, gen, w, tout, kout, ob, base) != OK:
+    if w.events[0]:
+        st = call_hook(w.hook[0], H_SWITCH)
+        if st < 0:
+            w.why[0] = PYTHON
+            return STOPPED
+        if st > 0:
+            return EVENT
+    return after_step(KP, DP, YP, ZP, S, gen, W, O, last)
+
+
+@njit(nrt=False, inline="always")
+def _before(W: Work, O: Outputs, book: bool) -> int:
+    """What the run loop does before an attempt: its length (:func:`begin_step`, the
+    book's cut by :func:`land`), fitted to the output rows (FULL when they must be
+    flushed first), the step start kept for event location.  -1 to go on."""
+    w = step_views(W.P)
+    begin_step(W, O.times[O.times.shape[0] - 1])
+    if book:
+        land(W, O)
+    if not fit(W, O):
+        return FULL
+    if w.events[0] and call_hook(w.hook[0], H_SNAP) != 0:
+        w.why[0] = PYTHON
         return STOPPED
-    if w.st[QUAL0] < 0.5 * w.st[QREF] and choose(KP, DP, S, gen, w):
-        return SWITCHED
     return -1
 
 
 @njit(nrt=False)
 def run_rk(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | None,
-           w: Work, tout: np.ndarray, kout: np.ndarray, ob: tuple, base: int, cap: int,
-           max_steps: int) -> int:
-    """Dormand-Prince steps toward the last output time (hit exactly) with the SGCs held
-    (w.ms the same at every stage), recording the outputs tout[kout[0]:] the steps
-    pass (interpolated, the loops closed there: :func:`outputs`) into the rows of
-    ob from kout[0] - base (at most cap rows).  Returns REACHED (every output
-    done); SWITCHED when the FGCs changed at w.st[T] (the caller records it and
-    calls again); STOPPED when a step could not be taken even at the smallest
-    length (w.it[WHY] says why); CAPPED after max_steps steps; FULL when the next
-    step's outputs would not fit."""
-    s0 = w.it[STEPS]
-    t_end = tout[tout.shape[0] - 1]
-    while kout[0] < tout.shape[0]:
-        begin_step(w, t_end)
-        if not fit(w, tout, kout, base, cap):
-            return FULL
-        h = w.st[H]
-        last = w.st[T] + h >= t_end
-        code = _after(KP, DP, YP, ZP, S, gen, w, rk_attempt(KP, DP, YP, ZP, S, gen, w), h,
-                      last, t_end, tout, kout, ob, base)
+           W: Work, O: Outputs, max_steps: int) -> int:
+    """Dormand-Prince steps toward the last output time (hit exactly), recording the
+    outputs O.times[O.k[0]:] the steps pass (interpolated, the loops closed there:
+    :func:`outputs`) into the rows of O.rows from O.k[0] - O.base (at most O.cap
+    rows).  Returns REACHED (every output done); SWITCHED when the FGCs changed at
+    w.t[0] (the caller records it and calls again); STOPPED when a step could not be
+    taken even at the smallest length (w.why[0] says why); CAPPED after max_steps
+    steps; FULL when the next step's outputs would not fit; EVENT when a switching
+    function changed sign over the step just accepted."""
+    w = step_views(W.P)
+    s0 = w.steps[0]
+    t_end = O.times[O.times.shape[0] - 1]
+    while O.k[0] < O.times.shape[0]:
+        code = _before(W, O, False)
         if code >= 0:
             return code
-        if w.it[STEPS] - s0 >= max_steps:
+        last = w.t[0] + w.h[0] >= t_end
+        code = _after(KP, DP, YP, ZP, S, gen, W, rk_attempt(KP, DP, YP, ZP, S, gen, W), O,
+                      last)
+        if code >= 0:
+            return code
+        if w.steps[0] - s0 >= max_steps:
             return CAPPED
     return REACHED
 
 
 @njit(nrt=False)
 def run_book(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | None,
-             w: Work, tout: np.ndarray, kout: np.ndarray, ob: tuple, base: int, cap: int,
-             max_steps: int) -> int:
+             W: Work, O: Outputs, max_steps: int) -> int:
     """:func:`run_rk` with the book's steps (compiled apart: a run of one method never
     compiles the other)."""
-    s0 = w.it[STEPS]
-    t_end = tout[tout.shape[0] - 1]
-    while kout[0] < tout.shape[0]:
-        begin_step(w, t_end)
-        land(w, tout, kout)
-        if not fit(w, tout, kout, base, cap):
-            return FULL
-        h = w.st[H]
-        last = w.st[T] + h >= t_end
-        code = _after(KP, DP, YP, ZP, S, gen, w, book_attempt(KP, DP, YP, ZP, S, gen, w), h,
-                      last, t_end, tout, kout, ob, base)
+    w = step_views(W.P)
+    s0 = w.steps[0]
+    t_end = O.times[O.times.shape[0] - 1]
+    while O.k[0] < O.times.shape[0]:
+        code = _before(W, O, True)
         if code >= 0:
             return code
-        if w.it[STEPS] - s0 >= max_steps:
+        last = w.t[0] + w.h[0] >= t_end
+        code = _after(KP, DP, YP, ZP, S, gen, W, book_attempt(KP, DP, YP, ZP, S, gen, W), O,
+                      last)
+        if code >= 0:
+            return code
+        if w.steps[0] - s0 >= max_steps:
             return CAPPED
     return REACHED

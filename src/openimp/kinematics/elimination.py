@@ -53,6 +53,25 @@ def jacobian(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None) -> None:
             J[r + k, e0 + t] = 2.0 * S.q[e0 + t]
 
 
+@njit(nrt=False)
+def free_columns(DP: tuple, sgc: np.ndarray, rank: int, free: np.ndarray) -> int:
+    """The free generalized coordinates (FGCs) an elimination leaves (6.5.3, 7.14):
+    free[a] (nq,) true where column a is neither specified (``sgc``) nor among the
+    first ``rank`` pivot columns of the last :func:`eliminate`.  Returns their number.
+    The one choice of the FGCs: every analysis takes them from here."""
+    d = data_views(DP)
+    nq = free.shape[0]
+    for a in range(nq):
+        free[a] = not sgc[a]
+    for k in range(rank):
+        free[d.pcol[k]] = False
+    n = 0
+    for a in range(nq):
+        if free[a]:
+            n += 1
+    return n
+
+
 @njit(nrt=False, inline="always")
 def eliminate(DP: tuple, sgc: np.ndarray, tol: float) -> tuple[int, float, float]:
     """Restricted complete-pivoting Gauss-Jordan elimination of [J | E] (book 6.5.3).

@@ -170,7 +170,7 @@ def initial_conditions(prep: Prepared, t0: float, notes: list[str]
 
 
 def _start(prep: Prepared, start: np.ndarray | None, q0: dict[str, float]) -> Any:
-    """The q0 of :func:`openimp.simulate`: the IC positions, or after EXECUTE HOLD the
+    """The posture ``q`` of :func:`openimp.simulate`: the IC positions, or after EXECUTE HOLD the
     posture reached with the IC positions put in."""
     if start is None:
         return q0 or None
@@ -203,7 +203,7 @@ def options(prep: Prepared, times: np.ndarray, notes: list[str]) -> dict[str, An
     st = prep.spec.state
     opts: dict[str, Any] = {
         "method": METHOD,
-        "force_tol": tuple(float(x) for x in st.tolerance("FORCE")),
+        "force_error": tuple(float(x) for x in st.tolerance("FORCE")),
         "mass_tol": float(st.tolerance("INERTIA")[0]),
         "min_step": _min_step(prep, times, notes),
         "tol": float(st.tolerance("POSITION")[0]) if "POSITION" in st.zero else 1e-10,
@@ -218,7 +218,8 @@ def options(prep: Prepared, times: np.ndarray, notes: list[str]) -> dict[str, An
 
 def _progress(progress: Callable[[int, int], None] | None, times: np.ndarray
               ) -> Callable[[float, float], None] | bool:
-    """simulate's progress callable (t, t_final) as the runner's (done, total) outputs."""
+    """simulate's progress(done, total) (the time reached, the final time) as the runner's
+    progress(done, total) in outputs."""
     if progress is None:
         return False
     n = len(times)
@@ -306,7 +307,7 @@ def _integrate(prep: Prepared, span: np.ndarray, start: np.ndarray | None,
         laws.resolve_at = None
         laws.resolve_state = state_resolver(prep)
     try:
-        return simulate(prep.system, times=span, q0=_start(prep, start, q0),
+        return simulate(prep.system, times=span, q=_start(prep, start, q0),
                         rates=rates or None, motion=motions(prep, notes) or None,
                         progress=_progress(progress, span), **options(prep, span, notes))
     finally:
