@@ -18,6 +18,7 @@ import numpy as np
 from openimp._jit import njit
 from openimp.dynamics.linear import _rate_forces, _setup, load_stiffness
 from openimp.kinematics.posture import newton
+from openimp.linalg import full_pivot, sym_eigen
 from openimp.system import data_views, dyn_data_views
 
 
@@ -100,106 +101,6 @@ NEWTON, DESCENT, MODIFIED, NEUTRAL_STEP, ESCAPE = 0, 1, 2, 3, 4
 #: state of :func:`search_step` (kept between steps)
 (S_SEEN, S_HAVE, S_NF, S_RANK, S_PE, S_SCALE, S_KIND, S_FMAX, S_STEPMAX, S_ITER, S_QUALITY,
  S_EVALS, S_KEVALS, S_CLOSED) = range(14)
-
-
-@njit(nrt=False)
-def full_pivot(A: np.ndarray, n: int, eps: float, rleft: np.ndarray, cleft: np.ndarray,
-               prow: np.ndarray, pcol: np.ndarray) -> int:
-    """Gauss-Jordan elimination of the augmented A (n, n+1) = [K | F] with full pivoting
-    (book 12.6), in place: pivots are taken while the largest entry of the Schur
-    complement exceeds ``eps``.  prow, pcol (n,) receive the pivots in order; rleft,
-    cleft (n,) bool mark the rows and columns left (the neutral group).  Returns the
-    number of pivots.  After it, x[pcol[k]] = A[prow[k], n] - sum over the neutral
-    columns j of A[prow[k], j] x[j], and A[r, n] of a row left is its reduced load."""
-    for i in range(n):
-        rleft[i] = True
-        cleft[i] = True
-    npiv = 0
-    for _ in range(n):
-        best = -1.0
-        r = -1
-        c = -1
-        for i in range(n):
-            if not rleft[i]:
-                continue
-            for j in range(n):
-                if cleft[j] and abs(A[i, j]) > best:
-                    best = abs(A[i, j])
-                    r = i
-                    c = j
-        if r < 0 or best <= eps:
-            break
-        p = A[r, c]
-        for j in range(n + 1):
-            A[r, j] /= p
-        for i in range(n):
-            if i != r and A[i, c] != 0.0:
-                f = A[i, c]
-                for j in range(n + 1):
-                    A[i, j] -= f * A[r, j]
-        rleft[r] = False
-        cleft[c] = False
-        prow[npiv] = r
-        pcol[npiv] = c
-        npiv += 1
-    return npiv
-
-
-@njit(nrt=False)
-def sym_eigen(K: np.ndarray, n: int, W: np.ndarray, V: np.ndarray, lam: np.ndarray) -> None:
-    """Eigenvalues lam (n,) ascending and vectors V[:n, :n] (columns) of the symmetric part
-    of K[:n, :n], by cyclic Jacobi rotations; W (n, n) scratch."""
-    for i in range(n):
-        for j in range(n):
-            W[i, j] = 0.5 * (K[i, j] + K[j, i])
-            V[i, j] = 1.0 if i == j else 0.0
-    for _sweep in range(60):
-        off = 0.0
-        diag = 0.0
-        for i in range(n):
-            diag += W[i, i] * W[i, i]
-            for j in range(i + 1, n):
-                off += W[i, j] * W[i, j]
-        if off <= 1e-30 * diag or off == 0.0:
-            break
-        for p in range(n):
-            for q in range(p + 1, n):
-                if W[p, q] == 0.0:
-                    continue
-                theta = (W[q, q] - W[p, p]) / (2.0 * W[p, q])
-                t = (1.0 if theta >= 0 else -1.0) / (abs(theta) + np.sqrt(theta * theta + 1.0))
-                c = 1.0 / np.sqrt(t * t + 1.0)
-                s = t * c
-                for k in range(n):
-                    a = W[k, p]
-                    b = W[k, q]
-                    W[k, p] = c * a - s * b
-                    W[k, q] = s * a + c * b
-                for k in range(n):
-                    a = W[p, k]
-                    b = W[q, k]
-                    W[p, k] = c * a - s * b
-                    W[q, k] = s * a + c * b
-                for k in range(n):
-                    a = V[k, p]
-                    b = V[k, q]
-                    V[k, p] = c * a - s * b
-                    V[k, q] = s * a + c * b
-    for i in range(n):
-        lam[i] = W[i, i]
-    for i in range(n):  # selection sort, columns of V along
-        m = i
-        for j in range(i + 1, n):
-            if lam[j] < lam[m]:
-                m = j
-        if m != i:
-            x = lam[i]
-            lam[i] = lam[m]
-            lam[m] = x
-            for k in range(n):
-                x = V[k, i]
-                V[k, i] = V[k, m]
-                V[k, m] = x
 
 
 @njit(nrt=False)

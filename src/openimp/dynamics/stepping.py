@@ -43,6 +43,7 @@ from openimp.dynamics.linear import H_MOTION, linearize_kernel
 from openimp.kinematics.elimination import eliminate, jacobian
 from openimp.kinematics.position import position
 from openimp.kinematics.posture import newton
+from openimp.linalg import cholesky_solve, expm
 from openimp.system import DAMPER, SPRING, data_views, dyn_data_views, dyn_views, model_views
 
 # ------------------------------------------------------------------ codes
@@ -229,45 +230,6 @@ def _close(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, w: Work,
 
 
 @njit(nrt=False, inline="always")
-def _cholesky_solve(A: np.ndarray, n: int, b: np.ndarray, x: np.ndarray, tol: float,
-                    floor: float) -> bool:
-    """x = A^-1 b for the symmetric positive definite A[:n, :n] (overwritten by its
-    Cholesky factor); False when a pivot falls below tol times the larger of its
-    largest diagonal and ``floor`` (a singular mass matrix, IMP's ZERO (INERTIA)).
-    The floor is the matrix's scale when the coordinates were chosen: a matrix
-    that shrinks as a whole (a 1x1 m r^2 with r -> 0) is then singular too."""
-    big = floor
-    for i in range(n):
-        big = max(big, abs(A[i, i]))
-    if n > 0 and big <= 0.0:
-        return False
-    for j in range(n):
-        s = A[j, j]
-        for k in range(j):
-            s -= A[j, k] * A[j, k]
-        if s <= tol * big:
-            return False
-        d = math.sqrt(s)
-        A[j, j] = d
-        for i in range(j + 1, n):
-            s = A[i, j]
-            for k in range(j):
-                s -= A[i, k] * A[j, k]
-            A[i, j] = s / d
-    for i in range(n):
-        s = b[i]
-        for k in range(i):
-            s -= A[i, k] * x[k]
-        x[i] = s / A[i, i]
-    for i in range(n - 1, -1, -1):
-        s = x[i]
-        for k in range(i + 1, n):
-            s -= A[k, i] * x[k]
-        x[i] = s / A[i, i]
-    return True
-
-
-@njit(nrt=False, inline="always")
 def _powers(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, nf: int,
             cols: np.ndarray, w: Work) -> None:
     """w.pw = (drive power, power of the loads without potential, dissipation rate)
@@ -363,7 +325,7 @@ def evaluate(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarr
     if w.st[MSCALE] <= 0.0:  # the first evaluation with these coordinates
         for i in range(nF):
             w.st[MSCALE] = max(w.st[MSCALE], w.Lc[i, i])
-    if not _cholesky_solve(w.Lc, nF, w.rhs, w.aF, w.st[MTOL], w.st[MSCALE]):
+    if not cholesky_solve(w.Lc, nF, w.rhs, w.aF, w.st[MTOL], w.st[MSCALE]):
         return SINGULAR_MASS
     i = 0
     s = 0
@@ -618,46 +580,6 @@ def rk_attempt(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.nda
 
 # ------------------------------------------------------------------ the book's step
 @njit(nrt=False)
-def expm(A: np.ndarray, n: int, E: np.ndarray, X1: np.ndarray, X2: np.ndarray) -> None:
-    """E[:n, :n] = exp(A[:n, :n]) by scaling and squaring of the Taylor series (degree 16
-    after scaling to a norm <= 1/2: truncation below 1e-19); A is kept."""
-    norm = 0.0
-    for i in range(n):
-        s = 0.0
-        for j in range(n):
-            s += abs(A[i, j])
-        norm = max(norm, s)
-    sq = 0
-    if norm > 0.5:
-        sq = math.ceil(math.log2(norm / 0.5))
-    sc = 0.5 ** sq
-    for i in range(n):
-        for j in range(n):
-            X1[i, j] = A[i, j] * sc
-            E[i, j] = 1.0 if i == j else 0.0
-    for k in range(16, 0, -1):  # Horner: E = I + X1 E / k
-        for i in range(n):
-            for j in range(n):
-                s = 0.0
-                for m in range(n):
-                    s += X1[i, m] * E[m, j]
-                X2[i, j] = s / k
-        for i in range(n):
-            for j in range(n):
-                E[i, j] = X2[i, j] + (1.0 if i == j else 0.0)
-    for _ in range(sq):
-        for i in range(n):
-            for j in range(n):
-                s = 0.0
-                for m in range(n):
-                    s += E[i, m] * E[m, j]
-                X2[i, j] = s
-        for i in range(n):
-            for j in range(n):
-                E[i, j] = X2[i, j]
-
-
-@njit(nrt=False)
 def book_linearize(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
                    gen: np.ndarray | None, w: Work) -> int:
     """M, D, K, F of ch 11 (11.7-11.10) at the step start, the FGCs and SGCs held, into
@@ -734,7 +656,7 @@ def book_linearize(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
             for m in range(nF):
                 w.Lc[i, m] = M[w.iF[i], w.iF[m]]
             w.rhs[i] = 1.0 if i == j else 0.0
-        if not _cholesky_solve(w.Lc, nF, w.rhs, w.aF, w.st[MTOL], w.st[MSCALE]):
+        if not cholesky_solve(w.Lc, nF, w.rhs, w.aF, w.st[MTOL], w.st[MSCALE]):
             return SINGULAR_MASS
         for i in range(nF):
             w.Minv[i, j] = w.aF[i]
