@@ -417,7 +417,6 @@ class _Run:
         # coordinates do not
         self.python = any(not isinstance(m, _Held) for m in drive.motions) or bool(system.laws)
         self.laws = _Laws(system, self.dyn) if system.laws else None
-        w.lopts[4] = 1.0 if system.laws else 0.0  # the book's closed postures, for the laws
         self.events_on = events and self.laws is not None and bool(self.laws.switches)
         self.switches: list[tuple[int, float, tuple[str, ...], tuple[str, ...]]] = []
         self.g_start: np.ndarray | None = None

@@ -39,7 +39,15 @@ import numpy as np
 
 from openimp._jit import njit
 from openimp.dynamics.eom import eom
-from openimp.dynamics.linear import H_MOTION, linearize_kernel
+from openimp.dynamics.linear import (
+    H_MOTION,
+    Linearized,
+    LinOptions,
+    LinWork,
+    linearize_kernel,
+    make_lin_work,
+    make_linearized,
+)
 from openimp.kinematics.elimination import eliminate, jacobian
 from openimp.kinematics.position import position
 from openimp.kinematics.posture import newton
@@ -58,9 +66,10 @@ REACHED, SWITCHED, STOPPED, CAPPED, FULL = 0, 1, 2, 3, 4
 (T, H, HNEXT, RTOL, ATOL, HMIN, HMAX, PTOL, CTOL, MTOL, FABS, FPCT, FSCALE, KE, PE,
  CLOSURE, QUALITY, SMALLEST, LARGEST, ERR, XMAX, QREF, TPREV, CLOS0, QUAL0, LSCALE,
  MSCALE, TFAIL, HPROP, NST) = range(30)
-#: integer scalars of w.it
-(NF, NS, STEPS, REJECTS, EVALS, CLOSES, MAXIT, HAVE_LIN, WHY, FORCED, LAW_OK,
- NIT) = range(12)
+#: integer scalars of w.it (LAWS: the run has load laws, whose derivatives need the
+#: closed postures of the book step's linearization)
+(NF, NS, STEPS, REJECTS, EVALS, CLOSES, MAXIT, HAVE_LIN, WHY, FORCED, LAW_OK, LAWS,
+ NIT) = range(13)
 
 # Dormand-Prince 5(4): nodes, stage weights (row 6 = the 5th-order weights, FSAL) and the
 # error weights b - b^ (b^ the 4th-order weights)
@@ -98,11 +107,12 @@ class Work(NamedTuple):
     predicted end (book, :func:`book_mid`).
     psid, aF, rhs (nq,); M, c, Q, Lc (mass, velocity products, forces,
     Cholesky scratch); pw (3,) stage powers; ag (nq,) generalized
-    accelerations; keep (nq,) bool scratch.  Book step: lin (M, D, K, F, P2,
-    A2, Gl, qpl, qdpl) and lwork of :func:`~openimp.dynamics.linear.linearize_kernel`;
-    Ab (n, n), Eb, X1, X2, X3 with n = 2 nq + 3: the augmented matrix, its
-    exponential and scratch; ap (nq,) predicted accelerations; lopts (5,) the
-    options of the linearization; lcols (nq,) its column order; iF, iS (nq,)
+    accelerations; keep (nq,) bool scratch.  Book step: lin
+    (:class:`~openimp.dynamics.linear.Linearized`) and lwork
+    (:class:`~openimp.dynamics.linear.LinWork`) of
+    :func:`~openimp.dynamics.linear.linearize_kernel`; Ab (n, n), Eb, X1, X2, X3 with
+    n = 2 nq + 3: the augmented matrix, its exponential and scratch; ap (nq,)
+    predicted accelerations; lcols (nq,) its column order; iF, iS (nq,)
     the places of the FGCs and SGCs in it; gF (3, nq) the forcing terms;
     Minv (nq, nq) M_FF^-1.  xprev, vprev, aprev (nq,), wprev, pprev (3,): the FGC
     positions, rates, accelerations, the works and powers at the start of the
@@ -142,15 +152,14 @@ class Work(NamedTuple):
     pw: np.ndarray
     ag: np.ndarray
     keep: np.ndarray
-    lin: tuple
-    lwork: tuple
+    lin: Linearized
+    lwork: LinWork
     Ab: np.ndarray
     Eb: np.ndarray
     X1: np.ndarray
     X2: np.ndarray
     X3: np.ndarray
     ap: np.ndarray
-    lopts: np.ndarray
     lcols: np.ndarray
     iF: np.ndarray
     iS: np.ndarray
@@ -168,19 +177,19 @@ def make_work(nq: int, ns: int, nb: int, nlaw: int) -> Work:
     """Zeroed arrays of :class:`Work` for nq joint variables, ns SGCs, nb bodies."""
     f = np.zeros
     n = 2 * nq + 3
-    lin = (f((nq, nq)), f((nq, nq)), f((nq, nq)), f(nq), f((nq, nq, nq)), f((nb, nq, nq, 6)),
-           f((nq, max(nlaw, 1))), f((nq, 4, nq)), f((nq, 4, nq)))
-    lwork = (f(nq), f(nq), f(nq), f(nq), f(nq), f(nq), f(nq), f(nq), f((nb, 6)), f(nq),
-             f(nq), np.zeros(nq, np.bool_), f((nq, nq)))
-    return Work(f(NST), np.zeros(NIT, np.int64), f(nq), np.zeros(nq, np.int64),
-                np.zeros(nq, np.int64), np.zeros(ns, np.int64), f(nq), f(nq), f(nq), f(nq),
-                f(nq), f(3), f((NSTAGE, ns, 3)), f((NSTAGE, nq)), f((NSTAGE, nq)),
-                f((NSTAGE, 3)), f((NSTAGE, 2)), f(nq), f(nq), f(3), f(nq), f(nq), f(nq), f(nq),
-                f(nq), f((nq, nq)), f(nq), f(nq), f((nq, nq)), f(3), f(nq),
-                np.zeros(nq, np.bool_), lin, lwork, f((n, n)), f((n, n)), f((n, n)),
-                f((n, n)), f((n, n)), f(nq), f(5), np.zeros(nq, np.int64),
-                np.zeros(nq, np.int64), np.zeros(nq, np.int64), f((3, nq)), f((nq, nq)),
-                f(nq), f(nq), f(nq), f(3), f(3), f(3))
+    lin = make_linearized(nq, nb, max(nlaw, 1))
+    lwork = make_lin_work(nq, nb)
+    w = Work(f(NST), np.zeros(NIT, np.int64), f(nq), np.zeros(nq, np.int64),
+             np.zeros(nq, np.int64), np.zeros(ns, np.int64), f(nq), f(nq), f(nq), f(nq),
+             f(nq), f(3), f((NSTAGE, ns, 3)), f((NSTAGE, nq)), f((NSTAGE, nq)),
+             f((NSTAGE, 3)), f((NSTAGE, 2)), f(nq), f(nq), f(3), f(nq), f(nq), f(nq), f(nq),
+             f(nq), f((nq, nq)), f(nq), f(nq), f((nq, nq)), f(3), f(nq),
+             np.zeros(nq, np.bool_), lin, lwork, f((n, n)), f((n, n)), f((n, n)),
+             f((n, n)), f((n, n)), f(nq), np.zeros(nq, np.int64),
+             np.zeros(nq, np.int64), np.zeros(nq, np.int64), f((3, nq)), f((nq, nq)),
+             f(nq), f(nq), f(nq), f(3), f(3), f(3))
+    w.it[LAWS] = 1 if nlaw else 0
+    return w
 
 
 # ------------------------------------------------------------------ the stage
@@ -584,7 +593,7 @@ def book_linearize(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
                    gen: np.ndarray | None, w: Work) -> int:
     """M, D, K, F of ch 11 (11.7-11.10) at the step start, the FGCs and SGCs held, into
     w.lin (rows and columns in the column order w.lcols of the FGCs and SGCs), the
-    places of both in w.iF, w.iS and M_FF^-1 in w.Minv.  With w.lopts[4] set the
+    places of both in w.iF, w.iS and M_FF^-1 in w.Minv.  With w.it[LAWS] set the
     closed postures are kept in w.lin for the derivatives of the load laws,
     which the caller adds to D and K (laws are Python) when w.it[LAW_OK].  Returns OK,
     LOST_COORDINATES or SINGULAR_MASS."""
@@ -604,21 +613,18 @@ def book_linearize(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
     for s in range(nS):
         w.psid[w.scols[s]] = w.ms[0, s, 1]
         w.rhs[w.scols[s]] = w.ms[0, s, 2]
-    o = w.lopts
-    o[0] = w.st[PTOL]
-    o[1] = w.st[CTOL]
-    o[2] = H_MOTION
     # the book's K (11.9) holds at rest; in motion its position derivatives of the
     # inertia and damper terms are added (differences over closed postures), which
     # makes the step second order
-    moving = 0.0
+    moving = False
     for j in range(nF):
         if w.v0[j] != 0.0 or w.kv[0, j] != 0.0:
-            moving = 1.0
+            moving = True
     for s in range(nS):
         if w.ms[0, s, 1] != 0.0 or w.ms[0, s, 2] != 0.0:
-            moving = 1.0
-    o[3] = moving  # o[4]: keep the closed postures for the laws' derivatives (the caller's)
+            moving = True
+    # keep the closed postures for the laws' derivatives (the caller adds them)
+    o = LinOptions(w.st[PTOL], w.st[CTOL], H_MOTION, moving, w.it[LAWS] != 0)
     nf, _, status = linearize_kernel(KP, DP, YP, ZP, S, gen, o, w.psid, w.rhs, w.lin,
                                      w.lwork)
     # the closed postures (and their rates) are whole only when every closure converged
@@ -626,10 +632,10 @@ def book_linearize(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
     if status != 0:  # a closure of the motion terms failed: the book's K at rest
         for a in range(nq):
             S.q[a] = w.q0[a]
-        o[3] = 0.0
+        o = LinOptions(o.pivot_tol, o.close_tol, o.h, False, o.keep)
         nf, _, _ = linearize_kernel(KP, DP, YP, ZP, S, gen, o, w.psid, w.rhs, w.lin, w.lwork)
-    if o[3] == 0.0:  # at rest the joint rates at the closed postures are zero (not written)
-        qdpl = w.lin[8]
+    if not o.motion:  # at rest the joint rates at the closed postures are zero (not written)
+        qdpl = w.lin.qdpl
         for i in range(qdpl.shape[0]):
             for p in range(qdpl.shape[1]):
                 for a in range(qdpl.shape[2]):
@@ -650,7 +656,7 @@ def book_linearize(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
         else:
             w.iS[b] = k
             b += 1
-    M = w.lin[0]
+    M = w.lin.M
     for j in range(nF):  # M_FF^-1 column by column
         for i in range(nF):
             for m in range(nF):
@@ -673,7 +679,7 @@ def book_predict(w: Work) -> int:
     the jerk between the step's ends, w.ms[0] and w.ms[6]): exact for a linear
     system under such an input, where the book freezes it.  Returns OK or
     TOO_LARGE (a displacement above w.st[XMAX], the book's step 7)."""
-    M, D, K, F = w.lin[0], w.lin[1], w.lin[2], w.lin[3]
+    M, D, K, F = w.lin.M, w.lin.D, w.lin.K, w.lin.F
     nF = w.it[NF]
     nS = w.scols.shape[0]
     tau = w.st[H]
@@ -782,7 +788,7 @@ def book_finish(S: tuple, w: Work) -> int:
     largest step).  Returns ACCEPTED or REJECTED."""
     nF = w.it[NF]
     h = w.st[H]
-    M = w.lin[0]
+    M = w.lin.M
     err = 0.0
     fmax = 0.0
     for i in range(nF):
@@ -794,7 +800,7 @@ def book_finish(S: tuple, w: Work) -> int:
             f += mij * w.aF[j]
         gs = w.gscale[w.fcols[i]]
         err = max(err, abs(e) * gs)
-        fmax = max(fmax, abs(f) * gs, abs(w.lin[3][w.iF[i]]) * gs)
+        fmax = max(fmax, abs(f) * gs, abs(w.lin.F[w.iF[i]]) * gs)
     w.st[FSCALE] = max(w.st[FSCALE], fmax, w.st[LSCALE])
     tol = w.st[FABS]
     pct = 0.01 * w.st[FPCT] * w.st[FSCALE]

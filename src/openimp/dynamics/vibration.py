@@ -34,7 +34,17 @@ import numpy as np
 import scipy.linalg
 
 from openimp.dynamics.laws import law_values_at
-from openimp.dynamics.linear import H_MOTION, linearize_kernel, linearize_steps
+from openimp.dynamics.linear import (
+    H_MOTION,
+    Linearized,
+    LinOptions,
+    LinSteps,
+    LinWork,
+    linearize_kernel,
+    linearize_steps,
+    make_lin_work,
+    make_linearized,
+)
 from openimp.errors import AnalysisError, InputError
 from openimp.kinematics import sweep
 from openimp.kinematics.posture import newton, sgc_residual
@@ -108,15 +118,14 @@ def linearize(system: System, q: Any = None, rates: Any = None, accels: Any = No
     psid = _per_coordinate(system, rates, "rates")
     psidd = _per_coordinate(system, accels, "accels")
     data, dyn, out, work = _scratch(system)
-    out[8][:] = 0.0  # the joint rates at the closed postures: written only when moving
+    out.qdpl[:] = 0.0  # the joint rates at the closed postures: written only when moving
     nlaw = len(system.laws)
     moving = motion_terms and bool(np.any(psid) or np.any(psidd))
-    opts = np.array([pivot_tol, CLOSE_TOL, H_MOTION, float(moving), float(nlaw > 0)])
+    opts = LinOptions(pivot_tol, CLOSE_TOL, H_MOTION, moving, nlaw > 0)
     if nlaw:
         # the laws at the set point's joint rates phi' psi': phi' from a first pass
         # without the differenced terms, which need the laws' values
-        first = opts.copy()
-        first[3:] = 0.0
+        first = LinOptions(pivot_tol, CLOSE_TOL, H_MOTION, False, False)
         nf = _kernel(system, data, dyn, S, first, psid, psidd, out, work)[0]
         qd = dyn.views("Gf")[:, :nf] @ psid[dyn.views("cols")[:nf]]
         dyn.views("law")[:] = law_values_at(system, S.q[None, :], qd[None, :], t)[0]
@@ -139,7 +148,7 @@ def linearize(system: System, q: Any = None, rates: Any = None, accels: Any = No
         raise AnalysisError(f"linearize: the loops do not close when {name} moves by "
                             f"{H_MOTION:g} from the set point: the posture is at or near a "
                             "singular position; move the set point away from it")
-    M, D, K, F, _, _, Gl, qpl, qdpl = out
+    M, D, K, F, Gl, qpl, qdpl = out.M, out.D, out.K, out.F, out.Gl, out.qpl, out.qdpl
     cols = dyn.views("cols")[:nf].copy()
     _check_coordinates(system, data, cols, rank, S.sgc, psid, psidd, given)
     G = dyn.views("Gf")[:, :nf].copy()
@@ -216,8 +225,8 @@ def _names(specified: Any) -> list[str]:
                          f"{specified!r}") from None
 
 
-def _kernel(system: System, data: Any, dyn: Any, S: Any, opts: np.ndarray, psid: np.ndarray,
-            psidd: np.ndarray, out: tuple, work: tuple) -> tuple[int, int, int]:
+def _kernel(system: System, data: Any, dyn: Any, S: Any, opts: LinOptions, psid: np.ndarray,
+            psidd: np.ndarray, out: Linearized, work: LinWork) -> tuple[int, int, int]:
     q0 = S.q.copy()
     res = linearize_kernel(system.KP, data.DP, system.YP, dyn.ZP, S, system.gen, opts,
                            psid, psidd, out, work)
@@ -636,13 +645,13 @@ def modes_along(system: System, q: Any, rates: Any = None, accels: Any = None, *
     data = make_data(system, nq)
     dyn = make_dyn_data(system, nq)
     out, work = _buffers(system)
-    opts = np.array([pivot_tol, CLOSE_TOL, H_MOTION, 1.0, 0.0])
-    MDK = np.zeros((n, 3, nq, nq))
-    NF = np.zeros(n, np.int64)
-    COLS = np.zeros((n, nq), np.int64)
-    RES = np.zeros(n)
-    linearize_steps(system.KP, data.DP, system.YP, dyn.ZP, S, system.gen, opts,
-                    system.to_internal(qm), psid, psidd, T, MDK, NF, COLS, RES, out, work)
+    opts = LinOptions(pivot_tol, CLOSE_TOL, H_MOTION, True, False)
+    steps = LinSteps(q=system.to_internal(qm), psid=psid, psidd=psidd, t=T,
+                     mdk=np.zeros((n, 3, nq, nq)), nf=np.zeros(n, np.int64),
+                     cols=np.zeros((n, nq), np.int64), res=np.zeros(n))
+    linearize_steps(system.KP, data.DP, system.YP, dyn.ZP, S, system.gen, opts, steps, out,
+                    work)
+    MDK, NF, COLS, RES = steps.mdk, steps.nf, steps.cols, steps.res
     loose = np.flatnonzero(RES > ASSEMBLED)
     NF[loose] = -2
     vs = system.var_scale
@@ -701,7 +710,7 @@ class _Views:
         return v
 
 
-def _scratch(system: System) -> tuple[Any, Any, tuple, tuple]:
+def _scratch(system: System) -> tuple[Any, Any, Linearized, LinWork]:
     """(Data, DynData, out, work) of :func:`linearize` for ``system``, made once; the
     Data and DynData carry ``views`` (:class:`_Views`)."""
     got = _SCRATCH.get(system)
@@ -713,16 +722,10 @@ def _scratch(system: System) -> tuple[Any, Any, tuple, tuple]:
     return got
 
 
-def _buffers(system: System) -> tuple[tuple, tuple]:
-    """The out and work tuples of :func:`~openimp.dynamics.linear.linearize_kernel`."""
-    nq, nb, nlaw = system.nq, len(system.bodies), len(system.laws)
-    out = (np.zeros((nq, nq)), np.zeros((nq, nq)), np.zeros((nq, nq)), np.zeros(nq),
-           np.zeros((nq, nq, nq)), np.zeros((nb, nq, nq, 6)), np.zeros((nq, nlaw)),
-           np.zeros((nq, 4, nq)), np.zeros((nq, 4, nq)))
-    work = (np.zeros(nq), np.zeros(nq), np.zeros(nq), np.zeros(nq), np.zeros(nq),
-            np.zeros(nq), np.zeros(nq), np.zeros(nq), np.zeros((nb, 6)), np.zeros(nq),
-            np.zeros(nq), np.zeros(nq, np.bool_), np.zeros((nq, nq)))
-    return out, work
+def _buffers(system: System) -> tuple[Linearized, LinWork]:
+    """The out and work of :func:`~openimp.dynamics.linear.linearize_kernel`."""
+    nq, nb = system.nq, len(system.bodies)
+    return make_linearized(nq, nb, len(system.laws)), make_lin_work(nq, nb)
 
 
 def _mode_map(system: System, qm: np.ndarray, blocks: list) -> ModeMap:
