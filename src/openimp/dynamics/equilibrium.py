@@ -221,7 +221,7 @@ class _Search:
 
     def evaluate(self, S: State) -> tuple[np.ndarray, np.ndarray]:
         """(cols, F) at the posture S.q (assembled or not), without the stiffness."""
-        nf = self._point(S)[0]
+        nf, _, _, _ = self._point(S)
         self.state.have = False
         return self.sc.z_cols[:nf].copy(), self.sc.F[:nf].copy()
 
@@ -239,8 +239,9 @@ class _Search:
             Fs = []
             for h in (H_LAW, -H_LAW):
                 S.q[:] = q0 + h * G[:, j]
-                if close_posture(sy.KP, sc.data.DP, S, sy.gen, cols, CLOSE_TOL,
-                                 self.o.pivot_tol, 30, sc.bufs.keep)[0] != 0:
+                status, _, _ = close_posture(sy.KP, sc.data.DP, S, sy.gen, cols, CLOSE_TOL,
+                                             self.o.pivot_tol, 30, sc.bufs.keep)
+                if status != 0:
                     S.q[:] = q0
                     raise AnalysisError("equilibrium: the loops do not close within "
                                         f"{H_LAW:g} of the posture along "

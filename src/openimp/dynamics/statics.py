@@ -68,7 +68,7 @@ def static_point(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
     for j in range(nf):
         u[j] = 0.0
         at.cols[j] = z.cols[j]
-    pe = forces_at_rates(KP, DP, YP, ZP, S, gen, rank, nf, u[:nf], cv, F)[1]
+    _, pe = forces_at_rates(KP, DP, YP, ZP, S, gen, rank, nf, u[:nf], cv, F)
     scale = 0.0
     for b in range(z.Fext.shape[0]):
         # force, and moment about the body's centre of mass (or its frame's origin when
