@@ -77,8 +77,8 @@ def expm(A: np.ndarray, n: int, E: np.ndarray, X1: np.ndarray, X2: np.ndarray) -
     polynomial of degree 16 is evaluated by Horner's rule (truncation below 1e-19
     relative) and squared s times.  A (>= n, >= n) is kept; E receives the
     exponential; X1, X2 (>= n, >= n) scratch.  The matrices of the book step are
-    small (2 nF + 3) with moderate norms, where this matches a Pade approximant
-    (scipy's expm) to rounding.
+    small (2 nF + 3) with moderate norms, where this agrees with scipy's Pade
+    approximant to 1e-13 of the largest entry (measured up to norm 60).
     """
     norm = 0.0
     for i in range(n):
