@@ -25,7 +25,7 @@ Tools (each in its own process, ``--worker TOOL``):
   M, c, Q from ``openimp.dynamics.eom.equations`` (the nonlinear equations of
   motion), K and D by central differences of the residual c - Q in the natural
   coordinate (crank angle A; hinge angle H in ``flex``), each perturbed posture
-  re-closed by ``openimp.sweep(..., start=q_k)``, then ``scipy.linalg.eig`` of the
+  re-closed by ``openimp.sweep(..., q=q_k)``, then ``scipy.linalg.eig`` of the
   first-order system;
 * Exudyn: ``ObjectRigidBody2D`` links, ``RevoluteJoint2D`` pins, the springs as
   ``CoordinateSpringDamper`` on rotation coordinates, the locked crank of ``flex``
@@ -194,7 +194,7 @@ def fd_run(systems, Q, specified, coord: str):
         drv = {coord: [q[s.var_index(coord)] - h, q[s.var_index(coord)] + h]}
         for key in specified:
             drv[key] = [q[s.var_index(key)]] * 2
-        tr = openimp.sweep(s, drv, start=q, tol=1e-13)
+        tr = openimp.sweep(s, drv, q=q, tol=1e-13)
         rm, rp = (equations(s, qq, specified=pin) for qq in tr.q)
         K = ((rp.c - rp.Q)[i] - (rm.c - rm.Q)[i]) / (2 * h)
         vm, vp = (equations(s, q, {coord: v}, specified=pin) for v in (-h, h))
@@ -220,7 +220,7 @@ def energy_check(systems, Q, specified, coord: str) -> dict:
         drv = {coord: [x - h, x + h]}
         for key in specified:
             drv[key] = [q[s.var_index(key)]] * 2
-        tr = openimp.sweep(s, drv, start=q, tol=1e-13)
+        tr = openimp.sweep(s, drv, q=q, tol=1e-13)
         e0 = equations(s, q, specified=pin)
         V = [equations(s, qq, specified=pin).potential for qq in tr.q]
         K = (V[0] - 2 * e0.potential + V[1]) / (h * h)

@@ -247,11 +247,6 @@ def test_long_run_10000_steps(tmp_path) -> None:
 
 
 def test_out_dir_graphics_and_store(tmp_path) -> None:
-    pytest.importorskip("matplotlib")
-    try:
-        from openimp import viz  # noqa: F401
-    except ImportError as exc:
-        pytest.skip(f"openimp.viz is not available yet ({exc})")
     out = tmp_path / "out"
     deck = tmp_path / "g.imp"
     deck.write_text(FOURBAR_HEAD + "POINT (CRANK) = K1, K2\nDATA POINT (K1, ABS) = 0,0,0\n"

@@ -33,7 +33,7 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq, minimize_scalar
 
-from test_python_docs import blocks, squash  # the doc pages' helpers
+from helpers.docs import blocks, squash
 
 ROOT = Path(__file__).parent.parent
 DOC = ROOT / "docs" / "dynamics.md"

@@ -107,7 +107,7 @@ def test_drive_equals_force_analysis():
     system = _fourbar()
     th = np.linspace(0.2, 1.2, 6)
     tr = openimp.sweep(system, {"A": th}, rates={"A": 1.3}, accels={"A": -0.8})
-    F = openimp.forces(tr)
+    F = openimp.forces_of(tr)
     for k in range(len(th)):
         e = _eq(system, tr.q[k], {"A": 1.3}, ["A"])
         np.testing.assert_allclose(e.drive([-0.8]), F.drive["A.theta"][k],

@@ -30,14 +30,15 @@ never the drive or the joint loads a second time.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
 
 import numpy as np
 import pytest
 
 import openimp
+from helpers.geometry import cardan_example_51
+from helpers.mechanics import Ref
+from helpers.models import Spec, slider_crank_joints
 from openimp.motion import Polynomial
-from test_kinematics import cardan_example_51  # the shape matrices of book example 5.1
 
 DEG = math.pi / 180
 G_EARTH = 9.81
@@ -85,234 +86,6 @@ def d1_central(f: np.ndarray, h: float) -> np.ndarray:
     (-f[k+2] + 8 f[k+1] - 8 f[k-1] + f[k-2]) / (12 h); truncation error
     h^4 / 30 |f^(5)|."""
     return (-f[4:] + 8 * f[3:-1] - 8 * f[1:-3] + f[:-4]) / (12 * h)
-
-
-# =============================================================================
-# A model builder that records what it gave the model (for the numpy references)
-# =============================================================================
-
-
-@dataclass
-class Spec:
-    """A Model and, beside it, the data the references need (model units, global
-    coordinates at the modeling posture)."""
-
-    model: openimp.Model
-    gravity: np.ndarray = field(default_factory=lambda: np.zeros(3))
-    mass: dict = field(default_factory=dict)  # body -> (m, c0 (3,), Ic0 (3, 3))
-    points: dict = field(default_factory=dict)  # point -> body
-    springs: list = field(default_factory=list)  # (name, p1, p2, k, l0)
-    dampers: list = field(default_factory=list)  # (name, p1, p2, c)
-    forces: list = field(default_factory=list)  # (name, point, f, dir (3,) | (pa, pb))
-    torques: list = field(default_factory=list)  # (name, body, t, dir (3,) | (pa, pb))
-    jsprings: dict = field(default_factory=dict)  # joint -> (k, q0)
-    jdampers: dict = field(default_factory=dict)  # joint -> c
-    jforces: dict = field(default_factory=dict)  # joint -> f
-
-    def joint(self, name, b1, b2, origin, axis=(0, 0, 1), kind="revolute", **kw):
-        self.model.add_joint(kind, name, b1, b2, origin=origin, axis=axis, **kw)
-
-    def set_gravity(self, g):
-        self.gravity = np.asarray(g, float)
-        self.model.set_gravity(g)
-
-    def add_mass(self, body, m, c0, Ic0):
-        assert self.model.add_mass(body, m, center=c0, inertia=Ic0) == []
-        self.mass[body] = (m, np.asarray(c0, float), np.asarray(Ic0, float))
-
-    def point(self, name, body, xyz):
-        self.model.add_point(name, body, xyz)
-        self.points[name] = body
-
-    def spring(self, name, p1, p2, k, l0):
-        self.model.add_spring(name, p1, p2, k, l0)
-        self.springs.append((name, p1, p2, k, l0))
-
-    def damper(self, name, p1, p2, c):
-        self.model.add_damper(name, p1, p2, c)
-        self.dampers.append((name, p1, p2, c))
-
-    def force(self, name, p, f, direction):
-        if isinstance(direction[0], str):
-            self.model.add_force(name, p, f, along=direction)
-        else:
-            self.model.add_force(name, p, f, direction=direction)
-        self.forces.append((name, p, f, direction))
-
-    def torque(self, name, body, t, direction):
-        if isinstance(direction[0], str):
-            self.model.add_torque(name, body, t, along=direction)
-        else:
-            self.model.add_torque(name, body, t, direction=direction)
-        self.torques.append((name, body, t, direction))
-
-    def joint_spring(self, joint, k, q0):
-        self.model.set_joint_spring(joint, k, q0)
-        self.jsprings[joint] = (k, q0)
-
-    def joint_damper(self, joint, c):
-        self.model.set_joint_damper(joint, c)
-        self.jdampers[joint] = c
-
-    def joint_force(self, joint, f):
-        self.model.set_joint_force(joint, f)
-        self.jforces[joint] = f
-
-    def compile(self):
-        return openimp.compile(self.model)
-
-
-def spec_cache():
-    """A ``compiled(key, build) -> (spec, system)`` that compiles each spec once per test
-    session; one cache per test module (its keys are its own)."""
-    cache: dict = {}
-
-    def compiled(key, build):
-        if key not in cache:
-            spec = build()
-            cache[key] = (spec, spec.compile())
-        return cache[key]
-
-    return compiled
-
-
-class Ref:
-    """Plain-numpy mechanics of a Spec along a trajectory (model units, global axes)."""
-
-    def __init__(self, spec: Spec, tr: openimp.Trajectory) -> None:
-        self.spec = spec
-        self.tr = tr
-        self.rates = tr.has_rates
-
-    # --------------------------------------------------------------- bodies
-    def moved(self, body):
-        """T_0b(step) T_0b(modeling)^-1 (n, 4, 4): what carries the body's points from
-        the modeling posture, where they were given, to every step."""
-        return self.tr.posture(body) @ np.linalg.inv(self.spec.model.body_frames[body])
-
-    def centre(self, body):
-        """Centre of mass (n, 3), its velocity and acceleration (zeros without rates)."""
-        _, c0, _ = self.spec.mass[body]
-        T = self.moved(body)
-        c = np.einsum("nij,j->ni", T[:, :3, :3], c0) + T[:, :3, 3]
-        if not self.rates:
-            return c, np.zeros_like(c), np.zeros_like(c)
-        V, A = self.tr.velocity_screw(body), self.tr.acceleration_screw(body)
-        v, w, a, al = V[:, :3], V[:, 3:], A[:, :3], A[:, 3:]
-        vc = v + np.cross(w, c)
-        ac = a + np.cross(al, c) + np.cross(w, vc)
-        return c, vc, ac
-
-    def inertia(self, body):
-        """Centroidal inertia on global axes (n, 3, 3)."""
-        _, _, I0 = self.spec.mass[body]
-        R = self.moved(body)[:, :3, :3]
-        return R @ I0 @ np.swapaxes(R, 1, 2)
-
-    def kinetic(self):
-        """T = sum 1/2 m |v_c|^2 + 1/2 w . I_c w (n,)."""
-        T = np.zeros(self.tr.nsteps)
-        for b, (m, _, _) in self.spec.mass.items():
-            _, vc, _ = self.centre(b)
-            w = self.tr.velocity_screw(b)[:, 3:]
-            T += 0.5 * m * np.sum(vc * vc, 1) + 0.5 * np.einsum("ni,nij,nj->n", w,
-                                                                self.inertia(b), w)
-        return T
-
-    # --------------------------------------------------------------- elements
-    def length(self, p1, p2):
-        """Length (n,), its rate (n,) and the unit vector from p2 to p1 (n, 3)."""
-        d = self.tr.point(p1) - self.tr.point(p2)
-        ln = np.linalg.norm(d, axis=1)
-        u = d / ln[:, None]
-        if not self.rates:
-            return ln, np.zeros_like(ln), u
-        dv = self.tr.point_velocity(p1) - self.tr.point_velocity(p2)
-        return ln, np.sum(u * dv, 1), u
-
-    def direction(self, direction):
-        """A fixed global direction or the unit vector from point a toward point b (n, 3)."""
-        if isinstance(direction[0], str):
-            d = self.tr.point(direction[1]) - self.tr.point(direction[0])
-        else:
-            d = np.tile(np.asarray(direction, float), (self.tr.nsteps, 1))
-        return d / np.linalg.norm(d, axis=1)[:, None]
-
-    def potential(self):
-        """V = -sum m g.c + 1/2 k (l - l0)^2 of the point springs + 1/2 k (q - q0)^2 of the
-        joint springs (n,)."""
-        V = np.zeros(self.tr.nsteps)
-        for b, (m, _, _) in self.spec.mass.items():
-            V -= m * self.centre(b)[0] @ self.spec.gravity
-        for _, p1, p2, k, l0 in self.spec.springs:
-            V += 0.5 * k * (self.length(p1, p2)[0] - l0) ** 2
-        for j, (k, q0) in self.spec.jsprings.items():
-            V += 0.5 * k * (self.tr.variable(j) - q0) ** 2
-        return V
-
-    def applied(self, body):
-        """Applied loads on ``body`` (gravity, point springs and dampers, forces and
-        torques): a list of (force (n, 3), point of application (n, 3) or None for a
-        pure moment (then ``force`` is the moment))."""
-        out = []
-        n = self.tr.nsteps
-        if body in self.spec.mass:
-            m = self.spec.mass[body][0]
-            out.append((np.tile(m * self.spec.gravity, (n, 1)), self.centre(body)[0]))
-        pairs = [(p1, p2, k * (self.length(p1, p2)[0] - l0))
-                 for _, p1, p2, k, l0 in self.spec.springs]
-        pairs += [(p1, p2, c * self.length(p1, p2)[1]) for _, p1, p2, c in self.spec.dampers]
-        for p1, p2, t in pairs:  # tension t pulls the two ends together
-            u = self.length(p1, p2)[2]
-            if self.spec.points[p1] == body:
-                out.append((-t[:, None] * u, self.tr.point(p1)))
-            if self.spec.points[p2] == body:
-                out.append((t[:, None] * u, self.tr.point(p2)))
-        for _, p, f, d in self.spec.forces:
-            if self.spec.points[p] == body:
-                out.append((f * self.direction(d), self.tr.point(p)))
-        for _, b, t, d in self.spec.torques:
-            if b == body:
-                out.append((t * self.direction(d), None))
-        return out
-
-    def joint_origin(self, joint):
-        """Origin of the joint frame on its first body (n, 3)."""
-        J = self.spec.model.joints[joint]
-        return np.einsum("nij,j->ni", self.moved(J.body1), J.frame1[:, 3])[:, :3]
-
-    def balance(self, F: openimp.Forces, body):
-        """Newton-Euler residuals of ``body``: (n, 3) force and (n, 3) moment about the
-        centre (sum of the loads minus m a_c, minus I_c alpha + w x I_c w), and their
-        scales (the largest force and the largest moment term met)."""
-        m, _, _ = self.spec.mass[body]
-        c, _, ac = self.centre(body)
-        n = self.tr.nsteps
-        fres = -m * ac
-        mres = np.zeros((n, 3))
-        if self.rates:
-            w = self.tr.velocity_screw(body)[:, 3:]
-            al = self.tr.acceleration_screw(body)[:, 3:]
-            Ic = self.inertia(body)
-            mres = -(np.einsum("nij,nj->ni", Ic, al) + np.cross(w, np.einsum("nij,nj->ni",
-                                                                              Ic, w)))
-        sf, sm = float(np.max(np.abs(fres))), float(np.max(np.abs(mres)))
-        loads = self.applied(body)
-        for j, J in self.spec.model.joints.items():
-            if body not in (J.body1, J.body2):
-                continue
-            R = F.reaction(j, "global")
-            sgn = 1.0 if body == J.body2 else -1.0  # first body on second: +, its reaction -
-            loads.append((sgn * R[:, :3], self.joint_origin(j)))
-            loads.append((sgn * R[:, 3:], None))
-        for f, r in loads:
-            mom = f if r is None else np.cross(r - c, f)
-            if r is not None:
-                fres = fres + f
-                sf = max(sf, float(np.nanmax(np.abs(f))))
-            mres = mres + mom
-            sm = max(sm, float(np.nanmax(np.abs(mom))))
-        return fres, mres, sf, sm
 
 
 # =============================================================================
@@ -402,22 +175,6 @@ def arm(loads: bool = True) -> Spec:
         s.joint_force("J2", -4.0)
         s.joint_force("J3", 2.5)
     return s
-
-
-def slider_crank_joints(name: str, a: float, b: float, e: float, th0: float
-                        ) -> tuple[Spec, np.ndarray, np.ndarray]:
-    """The joints of a slider-crank: crank a (A BASE->CRANK, from the origin at angle
-    th0), rod b (B CRANK->ROD), pin C ROD->SLIDER, prismatic D BASE->SLIDER along X on
-    the line y = e.  Returns the spec and the pins B and C."""
-    B = a * np.array([math.cos(th0), math.sin(th0), 0.0])
-    C = np.array([B[0] + math.sqrt(b * b - (e - B[1]) ** 2), e, 0.0])
-    s = Spec(openimp.Model(name))
-    s.joint("A", "BASE", "CRANK", np.zeros(3))
-    s.joint("B", "CRANK", "ROD", B)
-    s.joint("C", "ROD", "SLIDER", C)
-    s.joint("D", "BASE", "SLIDER", (0.0, e, 0.0), (1.0, 0.0, 0.0), kind="prismatic",
-            ref=(0.0, 1.0, 0.0), origin2=C)
-    return s, B, C
 
 
 def slider_crank() -> Spec:
@@ -531,7 +288,7 @@ def test_newton_euler_balance_of_every_body(name, rates):
     the RSCR and the 3R arm: all six.  Quasi-static: the same with no inertia and no
     damper forces.  Tolerance NE_TOL relative to the largest term of the body."""
     s, tr, bodies, comps = _sweep_case(name, rates=rates)
-    F = openimp.forces(tr)
+    F = openimp.forces_of(tr)
     ref = Ref(s, tr)
     for b in bodies:
         fres, mres, sf, sm = ref.balance(F, b)
@@ -553,7 +310,7 @@ def test_planar_fourbar_out_of_plane_components_are_indeterminate():
     unknown components make Fz, Mx, My unknown and leave Fx, Fy, Mz (the joint axes
     are along Z); on the second body's axes likewise."""
     _, tr, _, _ = _sweep_case("planar four-bar", n=30)
-    F = openimp.forces(tr)
+    F = openimp.forces_of(tr)
     want = np.array([True, True, False, False, False, True])
     for j in "ABCD":
         assert np.array_equal(F.determinate(j), np.tile(want, (tr.nsteps, 1))), j
@@ -574,7 +331,7 @@ def test_revolute_axis_moment_is_drive_plus_joint_load_and_free_directions_carry
     moments, the cylinder's slide force and moment.  RSCR with rates, 60 steps;
     tolerance 1e-12 of the largest drive."""
     s, tr, _, _ = _sweep_case("spatial RSCR")
-    F = openimp.forces(tr)
+    F = openimp.forces_of(tr)
     tau = F.drive["A.theta"]
     tol = 1e-12 * np.max(np.abs(tau))
     k, q0 = s.jsprings["D"]
@@ -593,7 +350,7 @@ def test_reaction_frames():
     prismatic D of the slider-crank, whose two frame origins differ (the slider's at
     the pin C, the ground's on the slide line at x = 0); 1e-12 relative."""
     s, tr, _, _ = _sweep_case("slider-crank", n=20)
-    F = openimp.forces(tr)
+    F = openimp.forces_of(tr)
     J = s.model.joints["D"]
     ref = Ref(s, tr)
     A1 = ref.moved(J.body1) @ J.frame1
@@ -649,7 +406,7 @@ def test_drive_is_lagrange_of_one_dof(build):
     w, al = 2.5, -4.0
     tr = openimp.sweep(s.compile(), {"A": th}, rates={"A": w}, accels={"A": al})
     assert tr.complete, tr.message
-    F = openimp.forces(tr)
+    F = openimp.forces_of(tr)
     ref = Ref(s, tr)
     M = 2.0 * ref.kinetic() / w**2
     V = ref.potential()
@@ -709,7 +466,7 @@ def test_hooke_coupling_book_example_17_1():
     psi = psi0 + np.radians(np.arange(0.0, 360.0, 5.0))
     tr = openimp.sweep(sy, {"D": psi})
     assert tr.complete, tr.message
-    F = openimp.forces(tr)
+    F = openimp.forces_of(tr)
     want = math.cos(beta) / (1.0 - math.sin(beta) ** 2 * np.sin(psi) ** 2) * PA
     np.testing.assert_allclose(F.reaction("D")[:, 5], want, rtol=1e-10, atol=0)
     np.testing.assert_allclose(F.drive["D.theta"], want, rtol=1e-10, atol=0)
@@ -732,7 +489,7 @@ def test_energies_along_a_sweep():
     at every step of the RSCR and of the 3R arm with every load; 1e-12 relative."""
     for name in ("spatial RSCR", "3R arm"):
         s, tr, _, _ = _sweep_case(name, n=40)
-        F = openimp.forces(tr, reactions=False)
+        F = openimp.forces_of(tr, reactions=False)
         ref = Ref(s, tr)
         T, V = ref.kinetic(), ref.potential()
         np.testing.assert_allclose(F.kinetic, T, rtol=0, atol=1e-12 * np.max(T))
@@ -759,7 +516,7 @@ def test_mass_matrix_of_the_arm_from_its_kinetic_energy():
         ref = Ref(s, tr)
         vel.append({b: (ref.centre(b)[1], tr.velocity_screw(b)[:, 3:]) for b in s.mass})
         tr = openimp.sweep(sy, q, rates=zero, accels=unit)
-        F = openimp.forces(tr, reactions=False)
+        F = openimp.forces_of(tr, reactions=False)
         cols.append(np.stack([F.drive[f"{k}.theta"] for k in keys], axis=1))
     Ic = {b: Ref(s, tr).inertia(b) for b in s.mass}
     M = np.zeros((tr.nsteps, 3, 3))
@@ -808,7 +565,7 @@ def test_quasi_static_drive_is_the_gradient_of_the_potential():
     for s, drivers, j in cases:
         tr = openimp.sweep(s.compile(), drivers)
         assert tr.complete, tr.message
-        F = openimp.forces(tr, reactions=False)
+        F = openimp.forces_of(tr, reactions=False)
         np.testing.assert_allclose(F.potential, Ref(s, tr).potential(), rtol=0,
                                    atol=1e-12 * np.max(np.abs(F.potential)))
         tau = F.drive[f"{j}.theta"][2:-2]
@@ -872,7 +629,7 @@ def test_power_balance_along_a_motion_of_time(name):
         motion = {"A": Polynomial([0.3, 3.0, 4.0, -5.0])}
     tr = openimp.sweep(sy, motion=motion, times=times)
     assert tr.complete, tr.message
-    F = openimp.forces(tr, reactions=False)
+    F = openimp.forces_of(tr, reactions=False)
     want = _power_reference(s, tr, F)
     assert set(F.power) == set(want)
     scale = max(float(np.max(np.abs(v))) for v in want.values())
@@ -967,7 +724,7 @@ def test_a_failing_law_is_an_input_error_at_forces_time(add, words):
     add(m)
     tr = openimp.sweep(openimp.compile(m), {"A": np.linspace(0.0, 1.0, 6)}, rates={"A": 1.0})
     with pytest.raises(openimp.InputError) as exc:
-        openimp.forces(tr)
+        openimp.forces_of(tr)
     for w in words:
         assert w in str(exc.value), (w, str(exc.value))
 
@@ -982,7 +739,7 @@ def test_element_forces_from_the_lengths():
     from the point positions, damper tension c dl/dt with dl/dt = u . (v1 - v2) from
     the point velocities, force and torque magnitudes as given; 1e-12 relative."""
     s, tr, _, _ = _sweep_case("planar four-bar")
-    F = openimp.forces(tr, reactions=False)
+    F = openimp.forces_of(tr, reactions=False)
     ref = Ref(s, tr)
     (_, p1, p2, k, l0), = s.springs
     ln, rate, _ = ref.length(p1, p2)
@@ -1014,7 +771,7 @@ def test_element_with_coincident_ends_is_skipped_with_a_message():
     th = np.radians(np.arange(0.0, 61.0, 5.0))
     w = 1.5
     tr = openimp.sweep(openimp.compile(m), {"A": th}, rates={"A": w}, accels={"A": 0.0})
-    F = openimp.forces(tr)
+    F = openimp.forces_of(tr)
     k = 6
     assert abs(th[k] - 30 * DEG) < 1e-15
     for name, kind in (("S", "spring"), ("K", "damper")):
@@ -1072,7 +829,7 @@ def test_piecewise_laws_match_their_linear_pieces():
         s.model.add_spring("S", "P1", "G1", *spring[:2], law=spring[2])
         s.model.set_joint_spring("C", *jspring[:2], law=jspring[2])
         tr = openimp.sweep(s.compile(), {"A": th}, rates={"A": w}, accels={"A": al})
-        return s, tr, openimp.forces(tr)
+        return s, tr, openimp.forces_of(tr)
 
     s, tr, F = run((0.0, None, bump), (0.0, None, stop))
     ref = Ref(s, tr)
@@ -1113,7 +870,7 @@ def test_laws_of_time_and_of_joint_variables():
     s.model.set_joint_force("B", law=lambda st: -0.7 * st.xd)
     times = np.arange(0.0, 0.5 + 5e-3, 1e-2)
     tr = openimp.sweep(s.compile(), motion={"A": Polynomial([0.3, 3.0, 4.0])}, times=times)
-    F = openimp.forces(tr)
+    F = openimp.forces_of(tr)
     np.testing.assert_allclose(F.element("T"), 3.0 * tr.variable("D"), rtol=1e-13)
     np.testing.assert_allclose(F.element("F"), 10.0 * np.sin(4 * times), rtol=0, atol=1e-13)
     wB = tr.qd[:, tr.system.var_index("B")]
@@ -1148,7 +905,7 @@ def test_one_pass_balances_every_body_and_equals_two_passes(name):
             fres, mres = fres[:, :2], mres[:, 2:]
         assert np.max(np.abs(fres)) <= NE_TOL * sf, (b, np.max(np.abs(fres)) / sf)
         assert np.max(np.abs(mres)) <= NE_TOL * sm, (b, np.max(np.abs(mres)) / sm)
-    F2 = openimp.forces(tr)
+    F2 = openimp.forces_of(tr)
     for key, v in F2.drive.items():
         np.testing.assert_allclose(F1.drive[key], v, rtol=0, atol=1e-8 * np.abs(v).max())
     for j in sy.joints:
@@ -1167,7 +924,7 @@ def test_one_pass_quasi_static_and_with_laws():
     sy = s.compile()
     th = np.linspace(0.1, 2.0, 25)
     F1 = openimp.forces(sy, {"A": th})
-    F2 = openimp.forces(openimp.sweep(sy, {"A": th}))
+    F2 = openimp.forces_of(openimp.sweep(sy, {"A": th}))
     np.testing.assert_allclose(F1.drive["A.theta"], F2.drive["A.theta"], rtol=0,
                                atol=1e-8 * np.abs(F2.drive["A.theta"]).max())
     assert np.all(F1.kinetic == 0.0)
@@ -1175,7 +932,7 @@ def test_one_pass_quasi_static_and_with_laws():
     m.add_spring("LAWSPRING", *s.springs[0][1:3], law=lambda st: 3.0 * st.length ** 2)
     sy2 = openimp.compile(m)
     F3 = openimp.forces(sy2, {"A": th}, rates={"A": 1.0})
-    F4 = openimp.forces(openimp.sweep(sy2, {"A": th}, rates={"A": 1.0}))
+    F4 = openimp.forces_of(openimp.sweep(sy2, {"A": th}, rates={"A": 1.0}))
     np.testing.assert_allclose(F3.drive["A.theta"], F4.drive["A.theta"], rtol=1e-12)
     L = np.linalg.norm(F3.trajectory.point(s.springs[0][1])
                        - F3.trajectory.point(s.springs[0][2]), axis=1)
@@ -1193,7 +950,7 @@ def test_open_chain_fully_driven_needs_no_sweep():
     q, qd, qdd = arm_motion(40)
     F1 = openimp.forces(sy, q, rates=qd, accels=qdd)
     tr = openimp.sweep(sy, q, rates=qd, accels=qdd)
-    F2 = openimp.forces(tr)
+    F2 = openimp.forces_of(tr)
     for key, v in F2.drive.items():
         np.testing.assert_allclose(F1.drive[key], v, rtol=0, atol=1e-12 * np.abs(v).max())
     for j in sy.joints:

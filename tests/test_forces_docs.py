@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from test_python_docs import blocks  # the doc pages' helpers
+from helpers.docs import blocks
 
 DOC = Path(__file__).parent.parent / "docs" / "forces.md"
 
@@ -58,7 +58,7 @@ def test_forces_docs_run_and_are_right(tmp_path, monkeypatch, capsys) -> None:
     import openimp
     t0 = np.radians(40.0)
     tt = openimp.sweep(ns["sys4"], {"A": [t0 - 1e-6, t0, t0 + 1e-6]})
-    ff = openimp.forces(tt)
+    ff = openimp.forces_of(tt)
     np.testing.assert_allclose(ff.drive["A.theta"][1],
                                (ff.potential[2] - ff.potential[0]) / 2e-6, rtol=1e-7)
     # --- the Hooke coupling: virtual work T_in w_in + P w_out = 0 (the sign of

@@ -35,9 +35,9 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.interpolate import CubicSpline
 
+from helpers.decks import line_of, run_deck, write
 from openimp.imp.deck import load
 from openimp.imp.interp import DeckError
-from test_imp_statics import line_of, run_deck, write  # the deck helpers, shared
 
 ROOT = Path(__file__).parent.parent
 EXAMPLES = ROOT / "examples"

@@ -410,7 +410,7 @@ def test_list_force_matches_openimp_forces_of_the_same_model(tmp_path) -> None:
     s = openimp.compile(m)
     th = np.radians(30.0 * np.arange(13))
     tr = openimp.sweep(s, {"A": th}, rates={"A": np.zeros(13)}, hold_free=True)
-    f = openimp.forces(tr)
+    f = openimp.forces_of(tr)
     for j in ("A", "D"):
         got = runs[0].table("LIST FORCE", f"joint {j}").rows[:, 1:]
         want = f.reaction(j, frame="second")
@@ -454,7 +454,7 @@ def test_engine_example_against_the_python_model(tmp_path) -> None:
     s = openimp.compile(m)
     tr = openimp.sweep(s, {"A": th}, rates={"A": np.full(25, 188.5)},
                        accels={"A": np.zeros(25)}, hold_free=True)
-    f = openimp.forces(tr)
+    f = openimp.forces_of(tr)
     got = runs[0].table("LIST FORCE", "joint A").rows[:, 1:]
     want = f.reaction("A", frame="second")
     np.testing.assert_allclose(np.nan_to_num(got), np.nan_to_num(want), atol=1e-7)

@@ -36,6 +36,7 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
+from helpers.decks import line_of, run_deck, write
 from openimp.imp.deck import load
 from openimp.imp.interp import DeckError
 
@@ -47,25 +48,6 @@ DEG = math.pi / 180.0
 # =============================================================================
 # helpers
 # =============================================================================
-def run_deck(path: Path):
-    deck = load(path)
-    echo: list[str] = []
-    runs = deck.run(echo=echo.append)
-    return runs, echo
-
-
-def write(tmp_path: Path, text: str, name: str = "deck.imp") -> Path:
-    p = tmp_path / name
-    p.write_text(text)
-    return p
-
-
-def line_of(text: str, start: str) -> int:
-    """1-based number of the first line of ``text`` that starts with ``start``."""
-    for i, ln in enumerate(text.splitlines(), start=1):
-        if ln.startswith(start):
-            return i
-    raise AssertionError(start)
 
 
 def search_lines(echo: list[str]) -> list[int]:
@@ -774,3 +756,16 @@ def test_static_heading_json_has_the_free_coordinates(tmp_path) -> None:
     row = t.rows[0]
     assert row[t.columns.index("A 1")] == pytest.approx(47.15299306, abs=1e-6)
     assert int(row[t.columns.index("Search steps")]) == search_lines(echo)[0]
+
+
+@pytest.mark.parametrize("deck", ["counterbalanced_arm.imp", "toggle_clamp.imp",
+                                  "fourbar_spring.imp"])
+def test_runs_use_the_current_names(deck) -> None:
+    """The runners call the analyses by their current names: a static path, a static
+    search and a kinematic run with forces print no DeprecationWarning."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DeprecationWarning)
+        runs, _ = run_deck(EXAMPLES / deck)
+    assert all(r.ok for r in runs), [(r.failure, r.unsupported) for r in runs]

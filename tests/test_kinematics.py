@@ -19,6 +19,16 @@ import numpy as np
 import pytest
 
 import openimp
+from helpers.geometry import (
+    cardan_example_51,
+    circle_intersection,
+    e2,
+    hom,
+    rot,
+    rssr_geometry,
+    rssr_output,
+)
+from helpers.models import Rig, build_fivebar
 from openimp import InputError, Model
 
 DEG = math.pi / 180.0
@@ -26,23 +36,6 @@ DEG = math.pi / 180.0
 # =============================================================================
 # Independent geometry helpers (numpy only)
 # =============================================================================
-
-
-def hom(R: np.ndarray | None = None, p=None) -> np.ndarray:
-    T = np.eye(4)
-    if R is not None:
-        T[:3, :3] = R
-    if p is not None:
-        T[:3, 3] = p
-    return T
-
-
-def rot(axis, angle: float) -> np.ndarray:
-    """Rodrigues' rotation matrix about ``axis`` by ``angle``."""
-    k = np.asarray(axis, float)
-    k = k / np.linalg.norm(k)
-    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
-    return np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * K @ K
 
 
 def Rz(t: float) -> np.ndarray:
@@ -69,17 +62,6 @@ def inv(T: np.ndarray) -> np.ndarray:
     out[..., :3, 3] = -np.einsum("...ij,...j->...i", Rt, T[..., :3, 3])
     out[..., 3, 3] = 1.0
     return out
-
-
-def frame(origin, w, u) -> np.ndarray:
-    """Right-handed frame at ``origin`` with w along ``w`` and u toward ``u``."""
-    w = np.asarray(w, float) / np.linalg.norm(w)
-    u = np.asarray(u, float)
-    u = u - (u @ w) * w
-    u = u / np.linalg.norm(u)
-    T = np.eye(4)
-    T[:3, 0], T[:3, 1], T[:3, 2], T[:3, 3] = u, np.cross(w, u), w, origin
-    return T
 
 
 def wrap(x):
@@ -138,47 +120,6 @@ TILTED = Placement(rot((1.0, -2.0, 0.7), 1.1), (0.3, -1.7, 2.2))
 PLACEMENTS = pytest.mark.parametrize("place", [PLANAR, TILTED], ids=["xy", "tilted"])
 
 
-class Rig:
-    """A Model plus an independent record of every joint frame placed in it."""
-
-    def __init__(self, name: str, ground: str = "BASE") -> None:
-        self.m = Model(name, ground=ground)
-        self.j: dict[str, tuple[str, str, str, np.ndarray, np.ndarray]] = {}
-        self.bf: dict[str, np.ndarray] = {}
-
-    def joint(self, kind, name, b1, b2, F1, F2):
-        """A joint given by its two global 4x4 frames."""
-        self.m.add_joint(kind, name, b1, b2, frame1=F1, frame2=F2)
-        self.j[name] = (kind, b1, b2, np.array(F1, float), np.array(F2, float))
-
-    def pin(self, name, b1, b2, origin, axis, ref, ref2=None, kind="revolute", origin2=None):
-        """A joint given by origin/axis/ref (the add_joint keyword path)."""
-        kw = {}
-        if ref2 is not None:
-            kw["ref2"] = ref2
-        if origin2 is not None:
-            kw["origin2"] = origin2
-        self.m.add_joint(kind, name, b1, b2, origin=origin, axis=axis, ref=ref, **kw)
-        F1 = frame(origin, axis, ref)
-        F2 = frame(origin if origin2 is None else origin2, axis, ref if ref2 is None else ref2)
-        self.j[name] = (kind, b1, b2, F1, F2)
-
-    def ball(self, name, b1, b2, centre):
-        F = hom(p=centre)
-        self.joint("sphere", name, b1, b2, F, F)
-
-    def body_frame(self, body, T):
-        self.m.set_body_frame(body, T)
-        self.bf[body] = np.array(T, float)
-
-    def size(self) -> float:
-        o = np.array([F[:3, 3] for (_, _, _, F1, F2) in self.j.values() for F in (F1, F2)])
-        return float(np.linalg.norm(o.max(0) - o.min(0))) or 1.0
-
-    def compile(self):
-        return openimp.compile(self.m)
-
-
 def assert_loops_close(rig: Rig, res, tol: float = 1e-10) -> None:
     """Every loop closes at every solved posture.
 
@@ -215,18 +156,6 @@ def assert_loops_close(rig: Rig, res, tol: float = 1e-10) -> None:
 # =============================================================================
 
 
-def circle_intersection(P1, r1, P2, r2, left: bool = True) -> np.ndarray:
-    """Planar intersection of circle (P1, r1) and (P2, r2), left of P1->P2 or right."""
-    P1, P2 = np.asarray(P1, float), np.asarray(P2, float)
-    dv = P2 - P1
-    L = np.linalg.norm(dv)
-    x = (r1 * r1 - r2 * r2 + L * L) / (2 * L)
-    y = math.sqrt(r1 * r1 - x * x)
-    ex = dv / L
-    ey = np.array([-ex[1], ex[0]])
-    return P1 + x * ex + (y if left else -y) * ey
-
-
 def freudenstein(a, b, c, d, th2, s4, s3):
     """Rocker and coupler angles of the four-bar A(0,0)-B-C-D(d,0).
 
@@ -259,11 +188,6 @@ def rot2(t, v):
     v = np.asarray(v, float)
     c, s = np.cos(t), np.sin(t)
     return np.stack([c * v[..., 0] - s * v[..., 1], s * v[..., 0] + c * v[..., 1]], -1)
-
-
-def e2(t):
-    t = np.asarray(t, float)
-    return np.stack([np.cos(t), np.sin(t)], -1)
 
 
 def build_fourbar(place: Placement, a, b, c, d, th0, rocker_ref=False, left=True):
@@ -467,24 +391,6 @@ def test_hooke_coupling_denavit_hartenberg(alpha_deg):
     assert_loops_close(rig, res)
 
 
-def cardan_example_51(beta, d1, d2, h):
-    """Shape matrices of book Example 5.1 (bodies 4 frame, 1 output shaft,
-    2 cross, 3 input shaft; joints A 4->1, B 1->2, C 2->3, D 3->4)."""
-    cb, sb = math.cos(beta), math.sin(beta)
-    S = {
-        ("4", "A"): np.array([[0, 0, 1, d1], [1, 0, 0, h], [0, 1, 0, 0], [0, 0, 0, 1.0]]),
-        ("1", "A"): np.array([[0, 0, 1, d1], [0, -1, 0, 0], [1, 0, 0, 0], [0, 0, 0, 1.0]]),
-        ("1", "B"): np.array([[0, 1, 0, 0], [0, 0, 1, 0], [1, 0, 0, 0], [0, 0, 0, 1.0]]),
-        ("2", "B"): np.eye(4),
-        ("2", "C"): np.array([[0, 1, 0, 0], [0, 0, 1, 0], [1, 0, 0, 0], [0, 0, 0, 1.0]]),
-        ("3", "C"): np.array([[0, 0, 1, 0], [0, -1, 0, 0], [1, 0, 0, 0], [0, 0, 0, 1.0]]),
-        ("3", "D"): np.array([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, d2], [0, 0, 0, 1.0]]),
-        ("4", "D"): np.array([[0, -sb, cb, d2 * cb], [1, 0, 0, h], [0, cb, sb, d2 * sb],
-                              [0, 0, 0, 1.0]]),
-    }
-    return S
-
-
 def cardan_closed_form(psi, beta):
     """Book Example 5.1: from T34 T41 = (T12 T23)^-1,
     phi_A = atan(-tan psi cos beta), phi_B = acos(sin psi sin beta),
@@ -551,41 +457,6 @@ def test_cardan_book_example_51():
 # =============================================================================
 # 3. Spatial linkages, mobility and driver checks
 # =============================================================================
-
-
-def rssr_geometry():
-    """RSSR: crank on z through O (radius r1 = 1), rocker on a skew axis w2
-    through D0 (radius r2 = 2, ball offset h2 = 0.4 along w2), coupler L = 3.75."""
-    w2 = np.array([1.0, 0.3, 0.2])
-    w2 /= np.linalg.norm(w2)
-    u2 = np.cross(w2, [0.0, 0.0, 1.0])
-    u2 /= np.linalg.norm(u2)
-    v2 = np.cross(w2, u2)
-    return dict(r1=1.0, r2=2.0, h2=0.4, L=3.75, D0=np.array([0.5, 3.0, 1.5]),
-                w2=w2, u2=u2, v2=v2)
-
-
-def rssr_output(g, th, sign):
-    """Rocker angle phi of the RSSR for crank angle th.
-
-    Ball centres B(th) = r1 (cos th, sin th, 0) and
-    C(phi) = D0 + h2 w2 + r2 (cos phi u2 + sin phi v2); the coupler keeps
-    |C - B| = L.  With g = D0 + h2 w2 - B (and u2, v2 orthonormal, normal to w2):
-        |g|^2 + r2^2 + 2 r2 (g.u2 cos phi + g.v2 sin phi) = L^2
-    i.e. P cos phi + Q sin phi = R with P = 2 r2 g.u2, Q = 2 r2 g.v2,
-    R = L^2 - |g|^2 - r2^2, so phi = atan2(Q, P) + sign acos(R / hypot(P, Q)).
-    (For these dimensions |R / hypot(P, Q)| <= 0.71: the crank turns fully.)
-    """
-    th = np.asarray(th, float)
-    B = g["r1"] * np.stack([np.cos(th), np.sin(th), 0 * th], -1)
-    gv = g["D0"] + g["h2"] * g["w2"] - B
-    P = 2 * g["r2"] * gv @ g["u2"]
-    Q = 2 * g["r2"] * gv @ g["v2"]
-    R = g["L"] ** 2 - np.sum(gv * gv, -1) - g["r2"] ** 2
-    phi = np.arctan2(Q, P) + sign * np.arccos(R / np.hypot(P, Q))
-    C = g["D0"] + g["h2"] * g["w2"] + g["r2"] * (
-        np.cos(phi)[..., None] * g["u2"] + np.sin(phi)[..., None] * g["v2"])
-    return phi, B, C
 
 
 def test_rssr_output_angle_and_passive_freedom():
@@ -679,25 +550,6 @@ def test_bennett_mobility_and_input_output():
         assert np.max(np.abs(wrap(res.variable(name) - want))) < 1e-9, name
     assert np.all(res.mobility == 1)
     assert_loops_close(rig, res)
-
-
-def build_fivebar():
-    """Planar five-bar: ground A(0,0)-E(4,0), cranks 1.5 at A and E, couplers 3
-    and 3 meeting at C (left of B->D)."""
-    A2, E2 = np.zeros(2), np.array([4.0, 0.0])
-    l1, l2, l3, l4 = 1.5, 3.0, 3.0, 1.5
-    t1, t4 = 70 * DEG, 110 * DEG
-    B2, D2 = A2 + l1 * e2(t1), E2 + l4 * e2(t4)
-    C2 = circle_intersection(B2, l2, D2, l3, left=True)
-    z, x = (0, 0, 1), (1, 0, 0)
-    rig = Rig("five-bar")
-    rig.pin("A", "BASE", "K1", [*A2, 0], z, x)
-    rig.pin("B", "K1", "C1", [*B2, 0], z, x)
-    rig.pin("C", "C1", "C2", [*C2, 0], z, x)
-    rig.pin("D", "C2", "K2", [*D2, 0], z, x)
-    rig.pin("E", "K2", "BASE", [*E2, 0], z, x)
-    rig.m.add_point("PC", "C1", [*C2, 0])
-    return rig, dict(A=A2, E=E2, l=(l1, l2, l3, l4), t1=t1, t4=t4)
 
 
 def test_fivebar_mobility_two_drivers():

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 import openimp
+from helpers.models import fourbar
 from openimp import InputError, Model
 
 
@@ -25,26 +26,6 @@ def input_error(fn, *names: str) -> str:
     for n in names:
         assert n in msg, f"{n!r} not named in: {msg}"
     return msg
-
-
-def fourbar(ground: str = "BASE") -> Model:
-    """Planar crank-rocker a=1, b=3, c=2.5, d=3.2 at crank angle 40 deg."""
-    a, b, c, d = 1.0, 3.0, 2.5, 3.2
-    th = math.radians(40)
-    B = np.array([a * math.cos(th), a * math.sin(th), 0.0])
-    D = np.array([d, 0.0, 0.0])
-    BD = D - B
-    L = np.linalg.norm(BD)
-    x = (b * b - c * c + L * L) / (2 * L)
-    y = math.sqrt(b * b - x * x)
-    ex = BD / L
-    C = B + x * ex + y * np.array([-ex[1], ex[0], 0.0])
-    m = Model("four-bar", ground=ground)
-    m.add_joint("revolute", "A", "BASE", "CRANK", origin=(0, 0, 0))
-    m.add_joint("revolute", "B", "CRANK", "COUPLER", origin=B)
-    m.add_joint("revolute", "C", "COUPLER", "ROCKER", origin=C)
-    m.add_joint("revolute", "D", "ROCKER", "BASE", origin=D)
-    return m
 
 
 @pytest.fixture(scope="module")
@@ -250,7 +231,7 @@ def test_euler_rodrigues_parameter_cannot_be_driven():
 
 
 def test_start_posture_of_wrong_length(fb_system):
-    input_error(lambda: openimp.sweep(fb_system, {"A": [0.0, 0.1]}, start=[0.0, 0.0]), "start")
+    input_error(lambda: openimp.sweep(fb_system, {"A": [0.0, 0.1]}, q=[0.0, 0.0]), "q must hold")
 
 
 def test_unknown_point_and_body_in_results(fb_system):

@@ -17,20 +17,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from helpers.docs import blocks, squash
+
 DOC = Path(__file__).parent.parent / "docs" / "python.md"
 
 #: positions are solved to 1e-10 internal units: 1e-9 in model lengths
 TOL = 1e-9
-
-
-def blocks(text: str) -> list[str]:
-    """The ```python code blocks of a markdown text, in order."""
-    return re.findall(r"^```python\n(.*?)^```$", text, flags=re.S | re.M)
-
-
-def squash(text: str) -> str:
-    """``text`` with every run of white space one blank (for phrases across lines)."""
-    return " ".join(text.split())
 
 
 def coupler_point(theta: np.ndarray) -> np.ndarray:
@@ -60,7 +52,7 @@ def coupler_point(theta: np.ndarray) -> np.ndarray:
 
 def test_python_docs_run_and_are_right(tmp_path, monkeypatch) -> None:
     code = blocks(DOC.read_text())
-    assert len(code) == 4, "docs/python.md: describe, sweep, plot, animate"
+    assert len(code) == 5, "docs/python.md: describe, sweep, plot, animate, vocabulary"
     monkeypatch.chdir(tmp_path)
     ns: dict = {"__name__": "docs_python"}
     for block in code:
@@ -88,3 +80,28 @@ def test_python_docs_run_and_are_right(tmp_path, monkeypatch) -> None:
                                 r"</script>", page, flags=re.S).group(1))
     assert data["steps"] == 181
     assert data["times"][90] == pytest.approx(0.5)
+    # the vocabulary block: a start posture as a mapping reaches the closed form
+    np.testing.assert_allclose(ns["half"].point("P"), exact[:46], rtol=0, atol=TOL)
+
+
+#: every analysis of the Python API: the vocabulary table has a row for each
+ANALYSES = ["sweep", "forces", "forces_of", "equilibrium", "equilibria", "linearize",
+            "modes", "modes_along", "simulate"]
+
+
+def test_one_vocabulary_table_lists_every_analysis() -> None:
+    """One table (section "One vocabulary") with a row naming each analysis, and the
+    decided names in it: q, state=, specified=, force_rtol, max_iter, force_error."""
+    import openimp
+
+    text = DOC.read_text()
+    section = text[text.index("## 7. One vocabulary"):]
+    rows = [r for r in section.splitlines() if r.startswith("| `")]
+    named = {n for r in rows for n in re.findall(r"`(\w+)", r.split("|")[1])}
+    assert named == set(ANALYSES), named ^ set(ANALYSES)
+    assert all(callable(getattr(openimp, n)) for n in ANALYSES)
+    head = squash(section.split("| analysis |")[1].splitlines()[0])
+    assert "start" in head and "`specified=`" in head and "progress(done, total)" in head
+    for word in ("`force_rtol`", "`max_iter`", "`force_error`", "`state=`",
+                 "`start` -> `q`", "`rtol` -> `force_rtol`", "`max_steps` -> `max_iter`"):
+        assert word in section, word

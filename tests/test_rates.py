@@ -842,13 +842,6 @@ def test_singular_flag_does_not_depend_on_sweep_length(crank_deg):
 # =============================================================================
 
 
-def _need_kind(kind: str) -> None:
-    from openimp.joints import CATALOGUE
-
-    if kind not in CATALOGUE:
-        pytest.skip(f"joint kind {kind!r} not in openimp.joints.CATALOGUE yet")
-
-
 def test_fd_ferguson_gear_train():
     """Ferguson's paradox (book example 5.5, digest book-ch01-06 section 8.3):
     carrier 1 (revolute B, the input psi), planet 2 (N = 10, pitch radius 0.25)
@@ -863,7 +856,6 @@ def test_fd_ferguson_gear_train():
     psi, 0, 0]: the rates are these ratios times psi' and psi'' (1e-9), and
     agree with differences of the positions over a turn of the carrier (the
     planet turns 11 times; dt = 2.5e-4)."""
-    _need_kind("gear")
     m = Model("ferguson")
     for b in ("CARRIER", "PLANET", "SUN3", "SUN4"):
         m.add_body(b)
@@ -912,7 +904,6 @@ def test_fd_cam_radial_roller_follower():
     theta the roller centre sits at the cam angle pi/2 - theta, so
     y = r(pi/2 - theta),  y' = -r'(.) theta',  y'' = r''(.) theta'^2 - r'(.) theta''
     (1e-9), and all rates agree with differences over a full cam turn."""
-    _need_kind("cam")
 
     def r(a, k=0):
         return [2 + 0.3 * np.cos(a) + 0.1 * np.sin(2 * a),
@@ -950,7 +941,6 @@ def test_fd_sphere_groove_spatial_yoke():
     turns to gamma = atan2(0.5, sin th): rates of C from these to 1e-9, and
     every rate (including the groove slide and the ball's Euler-Rodrigues
     parameters) against differences over a full crank turn."""
-    _need_kind("sphere_groove")
     th0, hz = 30 * DEG, 0.5
     P0 = np.array([math.cos(th0), math.sin(th0), hz])
     g0 = math.atan2(hz, math.sin(th0))

@@ -37,6 +37,6 @@ def test_readme_python_runs_and_balances_power() -> None:
     a = eq.value("A")
     V = []
     for h in (-1e-5, 1e-5):
-        tr = ns["openimp"].sweep(sy, {"A": [a + h]}, start=eq.q)
-        V.append(ns["openimp"].forces(tr).potential[0])
+        tr = ns["openimp"].sweep(sy, {"A": [a + h]}, q=eq.q)
+        V.append(ns["openimp"].forces_of(tr).potential[0])
     assert abs(V[1] - V[0]) / 2e-5 < 1e-6 * max(1.0, abs(eq.potential))

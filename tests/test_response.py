@@ -1,5 +1,5 @@
 """Time response (book ch 14, issue 16): openimp.simulate against references written here
-(and in tests/response_models.py) in plain numpy / scipy.
+(and in tests/helpers/response_models.py) in plain numpy / scipy.
 
 1. a simple pendulum at 150 and 90 deg against its exact period 4 sqrt(l/g) K(k): the
    zero crossings of the angle located on a quintic Hermite interpolant of the
@@ -45,9 +45,9 @@ from scipy.interpolate import BPoly
 from scipy.optimize import brentq
 
 import openimp
-from openimp.errors import InputError, OpenIMPError
-from openimp.motion import ConstantRate, Harmonic
-from response_models import (
+from helpers.mechanics import Ref
+from helpers.models import spec_cache
+from helpers.response_models import (
     FBR,
     SLP,
     STP,
@@ -64,7 +64,8 @@ from response_models import (
     spring_mass,
     stiff_pendulum,
 )
-from test_forces import Ref, spec_cache
+from openimp.errors import InputError, OpenIMPError
+from openimp.motion import ConstantRate, Harmonic
 
 #: Newton-Euler balance: residual relative to the largest term of a body (round-off)
 NE_TOL = 1e-9
@@ -664,6 +665,11 @@ def one_way_reference(n: int):
 OWDTOL = {"rk": (dict(rtol=1e-10), 1e-9, 1e-8, RK_AUDIT),
           "book": ({}, 1e-9, 1e-9, 1e-5)}
 
+#: the energy the law's damping took, against E0 - (V + T) of the closed form at every
+#: output, relative to E0: rk measured 8.0e-10 (its rtol 1e-10 over 4 s); book 3.2e-6
+#: (its works by Simpson's rule: the size of its balance error)
+OWD_LOST = {"rk": 4e-9, "book": 1e-5}
+
 
 @pytest.mark.parametrize("method", list(OWDTOL))
 def test_one_way_damper_switchings(method):
@@ -671,7 +677,8 @@ def test_one_way_damper_switchings(method):
     from rest at 0.3 m, 4 s: the events are the instants where the rate changes sign,
     alternately rising and falling, at the closed-form sums of half damped periods
     pi / w_d(c); x at every output against the piecewise closed form; the energy
-    balance (the law's work in load_work); tolerances OWDTOL."""
+    balance (the law's work in load_work) and the energy lost, E0 minus the spring's
+    and the kinetic energy of the closed form; tolerances OWDTOL, OWD_LOST."""
     opts, tol_t, tol_x, tol_e = OWDTOL[method]
     m, k = OWD["m"], OWD["k"]
     _, sy = compiled("one-way", lambda: spring_mass(
@@ -686,15 +693,17 @@ def test_one_way_damper_switchings(method):
     assert np.abs(got - want).max() <= tol_t, got - want
     assert [e.direction for e in res.events] == [1 if i % 2 == 0 else -1
                                                   for i in range(want.size)]
-    xr = np.empty_like(times)
+    xr, vr = np.empty_like(times), np.empty_like(times)
     for i, tk in enumerate(times):
         t0, x0, c = [p for p in pieces if p[0] <= tk][-1]
-        xr[i] = damped_free(tk - t0, x0, m, k, c)[0]
+        xr[i], vr[i] = damped_free(tk - t0, x0, m, k, c)
     assert np.abs(res.q[:, 0] - xr).max() <= tol_x, np.abs(res.q[:, 0] - xr).max()
     check_audit(res, tol_e)
     e = res.energy
-    lost = 0.5 * k * OWD["x0"] ** 2 - (0.5 * k * xr[-1] ** 2)
-    assert e.dissipated[-1] - e.load_work[-1] == pytest.approx(lost, rel=0.05)
+    E0 = 0.5 * k * OWD["x0"] ** 2
+    lost = E0 - (0.5 * k * xr ** 2 + 0.5 * m * vr ** 2)
+    err = np.abs(e.dissipated - e.load_work - lost).max() / E0
+    assert err <= OWD_LOST[method], err
 
 
 def test_book_step_on_a_law_contact():
@@ -739,7 +748,7 @@ def test_forces_on_the_released_fourbar(fb):
     spec, sy, _ = fb
     res = openimp.simulate(sy, 2.0, print_step=0.05, rtol=1e-10)
     assert res.complete, res.message
-    F = openimp.forces(res)
+    F = openimp.forces_of(res)
     scale = sum(m for m, _, _ in spec.mass.values()) * G * FBR["l2"]
     free = {n for row in res.fgc for n in row}
     assert free
@@ -760,7 +769,7 @@ def test_forces_on_the_driven_cart():
     res = openimp.simulate(sy, 3.0, print_step=0.1, q0={"A": 0.6}, motion={"S": motion},
                            rtol=1e-10)
     assert res.complete, res.message
-    F = openimp.forces(res)
+    F = openimp.forces_of(res)
     ia = sy.var_index("A")
     th, w, a = res.q[:, ia], res.qd[:, ia], res.qdd[:, ia]
     xdd = motion(res.time)[2]
@@ -778,7 +787,7 @@ def test_forces_with_a_law_damper():
         m, k, damper_law=openimp.OneWayDamper(OWD["ext"], OWD["comp"])))
     res = openimp.simulate(sy, 3.0, print_step=0.05, q0={"X": OWD["x0"]}, rtol=1e-10)
     assert res.complete, res.message
-    F = openimp.forces(res)
+    F = openimp.forces_of(res)
     assert np.abs(F.drive["X.s"]).max() <= 1e-10 * k * OWD["x0"]
 
 

@@ -1,5 +1,5 @@
 """Static equilibrium (book ch 12): openimp.equilibrium and openimp.equilibria against
-references written here (and in tests/statics_models.py) in plain numpy / scipy.
+references written here (and in tests/helpers/statics_models.py) in plain numpy / scipy.
 
 * an upright pendulum with a torsional spring (k < m g l): every root of
   k theta = m g l sin theta by brentq; seek_stable leads to a stable root from any
@@ -35,15 +35,14 @@ of a load law is differenced), Newton-Euler balance 1e-9 of the body's largest t
 from __future__ import annotations
 
 import math
-import time
 
 import numpy as np
 import pytest
 from scipy.optimize import brentq, minimize, root
 
 import openimp
-from openimp.errors import InputError
-from statics_models import (
+from helpers.models import spec_cache
+from helpers.statics_models import (
     DEG,
     DP,
     SC,
@@ -67,7 +66,7 @@ from statics_models import (
     upright_pendulum,
     vehicle,
 )
-from test_forces import spec_cache
+from openimp.errors import InputError
 
 #: Newton-Euler balance: residual relative to the largest force / moment term of a body
 NE_TOL = 1e-9
@@ -374,7 +373,7 @@ def test_increment_limit():
     root (1e-9)."""
     _, sy = compiled("pendulum", lambda: upright_pendulum(K_RATIO)[0])
     eq1 = openimp.equilibrium(sy, [1.0])
-    eq2 = openimp.equilibrium(sy, [1.0], step_limit=0.05, max_steps=200)
+    eq2 = openimp.equilibrium(sy, [1.0], step_limit=0.05, max_iter=200)
     assert eq2.converged, eq2.messages
     assert max(h[2] for h in eq2.history) <= 0.05 * (1 + 1e-12)
     assert len(eq2.history) > len(eq1.history)
@@ -509,18 +508,15 @@ def test_vehicle_neutral_message_names_the_neutral_coordinate():
     assert "Y.s" not in msg[0], msg[0]
 
 
-@pytest.mark.parametrize("max_steps", [25, 7])
-def test_vehicle_pushed_has_no_equilibrium(max_steps):
+@pytest.mark.parametrize("max_iter", [25, 7])
+def test_vehicle_pushed_has_no_equilibrium(max_iter):
     """A small constant horizontal force: no equilibrium exists; the search stops at the
-    step cap (steps == max_steps) in well under a second with a message naming the step
-    cap and X, having moved the cart along the push."""
+    step cap (steps == max_iter) with a message naming the step cap and X, having moved
+    the cart along the push."""
     _, sy = compiled("vehicle pushed", lambda: vehicle(push=1.0))
-    t0 = time.perf_counter()
-    eq = openimp.equilibrium(sy, [0.0, 0.0], max_steps=max_steps)
-    dt = time.perf_counter() - t0
-    assert dt < 2.0, dt
+    eq = openimp.equilibrium(sy, [0.0, 0.0], max_iter=max_iter)
     assert eq.status == "step cap" and not eq.converged
-    assert eq.steps == max_steps
+    assert eq.steps == max_iter
     assert any("step cap" in m and "X.s" in m for m in eq.messages), eq.messages
     assert any("neutral" in m and "X.s" in m for m in eq.messages), eq.messages
     assert eq.value("X") > 0.0
@@ -610,9 +606,9 @@ def test_unassembled_start_is_input_error():
     assert eq.converged
 
 
-BAD_OPTIONS = [dict(force_tol=-1.0), dict(force_tol="x"), dict(rtol=0.0), dict(rtol=None),
-               dict(step_tol=0.0), dict(max_steps=0), dict(max_steps=2.5),
-               dict(max_steps=True), dict(step_limit=float("nan")), dict(step_limit=-1.0),
+BAD_OPTIONS = [dict(force_tol=-1.0), dict(force_tol="x"), dict(force_rtol=0.0),
+               dict(force_rtol=None), dict(step_tol=0.0), dict(max_iter=0), dict(max_iter=2.5),
+               dict(max_iter=True), dict(step_limit=float("nan")), dict(step_limit=-1.0),
                dict(neutral_tol="x"), dict(pivot_tol=float("inf")), dict(t="x"),
                dict(specified=["Z"])]
 
@@ -637,9 +633,9 @@ def test_bad_options_are_input_errors(pend, kw):
     lambda sy: openimp.equilibria(sy, {"A": [0.1, 0.2]}, times=[0.0, 1.0, 2.0]),
     lambda sy: openimp.equilibria(sy, times=[0.0, math.nan]),
     lambda sy: openimp.equilibria(sy, {"A": [0.1]}, bogus=1),
-    lambda sy: openimp.equilibria(sy, {"A": [0.1]}, max_steps=-3),
+    lambda sy: openimp.equilibria(sy, {"A": [0.1]}, max_iter=-3),
 ], ids=["q shape", "q nan", "q text", "model", "no path", "path list", "empty", "2-d",
-        "inf", "unknown", "times length", "times nan", "unknown option", "max_steps"])
+        "inf", "unknown", "times length", "times nan", "unknown option", "max_iter"])
 def test_bad_calls_are_input_errors(pend, call):
     with pytest.raises(InputError):
         call(pend["sy"])
@@ -735,7 +731,7 @@ def test_path_stops_where_no_equilibrium_exists():
     t = 1 none (the step cap): the path ends there with a message naming the step and
     the step cap; the steps before it are kept and balanced."""
     _, sy = compiled("vehicle law", lambda: vehicle(push_law=lambda s: s.t))
-    pa = openimp.equilibria(sy, times=[0.0, 1.0, 2.0, 3.0], max_steps=10)
+    pa = openimp.equilibria(sy, times=[0.0, 1.0, 2.0, 3.0], max_iter=10)
     assert pa.message.startswith("step 1:") and "step cap" in pa.message, pa.message
     assert 1 <= len(pa) <= 2
     assert pa.steps[0].converged and pa.steps[0].stability == "neutral"
@@ -957,7 +953,7 @@ def test_review_uneven_steps_are_no_jump() -> None:
 
 
 def test_review_state_time_and_history_units() -> None:
-    """equilibrium(q=State, t=...) uses t; the history is in model units."""
+    """equilibrium(state=State, t=...) uses t; the history is in model units."""
     from openimp.system import make_state
 
     m = openimp.Model("slider")
@@ -969,7 +965,7 @@ def test_review_state_time_and_history_units() -> None:
     m.add_force("F", "P", 0.0, direction=(0, 1, 0), law=lambda s: 10.0 * s.t)
     sy = openimp.compile(m)
     a = openimp.equilibrium(sy, t=2.0, forces=False)
-    b = openimp.equilibrium(sy, q=make_state(sy), t=2.0, forces=False)
+    b = openimp.equilibrium(sy, state=make_state(sy), t=2.0, forces=False)
     assert a.value("Y") == pytest.approx(0.2, abs=1e-12)
     assert b.value("Y") == pytest.approx(0.2, abs=1e-12) and b.t == 2.0
     # the first step: unbalanced force 20 N at y = 0 (model units), a step of 0.2 m

@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import brentq
 
-from test_python_docs import blocks, squash  # the doc pages' helpers
+from helpers.docs import blocks, squash
 
 ROOT = Path(__file__).parent.parent
 DOC = ROOT / "docs" / "statics.md"

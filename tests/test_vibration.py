@@ -25,8 +25,9 @@ import scipy.signal
 from scipy.integrate import solve_ivp
 
 import openimp
+from helpers.geometry import rssr_geometry, rssr_output
+from helpers.models import Rig, build_fivebar
 from openimp.dynamics.eom import equations
-from test_kinematics import Rig, build_fivebar, rssr_geometry, rssr_output
 
 G = 9.81
 
@@ -219,7 +220,7 @@ def gimbal(spin: float):
 
 def posture(system, drive: dict[str, float], start=None, hold_free=False) -> np.ndarray:
     """The posture closed (to 1e-13) with the joint variables of ``drive`` set."""
-    tr = openimp.sweep(system, {k: [v] for k, v in drive.items()}, start=start, tol=1e-13,
+    tr = openimp.sweep(system, {k: [v] for k, v in drive.items()}, q=start, tol=1e-13,
                        hold_free=hold_free)
     assert tr.complete, tr.message
     return np.array(tr.q[0])
@@ -463,7 +464,7 @@ def damper_term(system):
         def ldot(rates):
             tr = openimp.sweep(system, {c: [q[system.var_index(c)]] for c in coords},
                                rates={c: [r] for c, r in zip(coords, rates, strict=True)},
-                               start=q, tol=1e-13)
+                               q=q, tol=1e-13)
             d = tr.point("R")[0] - tr.point("H")[0]
             return d @ (tr.point_velocity("R")[0] - tr.point_velocity("H")[0]) / np.linalg.norm(d)
 

@@ -17,8 +17,8 @@ from pathlib import Path
 
 import numpy as np
 
+from helpers.docs import blocks
 from openimp.dynamics.eom import equations
-from test_python_docs import blocks  # the doc pages' helpers
 
 DOC = Path(__file__).parent.parent / "docs" / "vibration.md"
 

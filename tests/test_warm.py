@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 import openimp
+from helpers.models import fourbar
 from openimp import _warm
 from openimp._jit import JIT_ENABLED
 
@@ -17,8 +18,6 @@ def test_helper_compiles_the_signatures_a_run_uses():
     """After a sweep with rates and the postures and rates of its bodies, the
     disk cache holds every (kernel, types) the helper compiles: the helper's
     entries are the ones a run looks up."""
-    from test_model import fourbar
-
     s = openimp.compile(fourbar())
     a = np.radians(np.arange(0.0, 30.0, 10.0))
     res = openimp.sweep(s, {"A": a}, rates={"A": 1.0}, accels={"A": 0.5})

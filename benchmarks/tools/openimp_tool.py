@@ -278,12 +278,12 @@ def case_fourbar_forces(ctx) -> CaseRun:
         return f
 
     def two_pass():
-        return openimp.forces(kin())
+        return openimp.forces_of(kin())
 
     stored = kin()
 
     def forces_only():
-        return openimp.forces(stored)
+        return openimp.forces_of(stored)
 
     def outputs(f):
         R = np.stack([f.reaction(j, "global")[:, [0, 1, 5]] for j in joints], axis=1)
@@ -337,7 +337,7 @@ def case_chain_dynamics(ctx) -> CaseRun:
     stored = kin()
 
     def forces_only():
-        return openimp.forces(stored, reactions=False)
+        return openimp.forces_of(stored, reactions=False)
 
     def outputs(f):
         return {"tau": np.stack([f.drive[k] for k in keys], axis=1)}

@@ -10,7 +10,7 @@ compiled system as in Pinocchio and MuJoCo::
     ...
     system = openimp.compile(m)
     res = openimp.sweep(system, {"A": np.radians(np.arange(361))})
-    f = openimp.forces(res)          # drive torques, joint reactions (with masses, loads)
+    f = openimp.forces_of(res)       # drive torques, joint reactions (with masses, loads)
 
 (``docs/python.md`` goes on to a plot and an animation.)
 """
@@ -25,6 +25,7 @@ from openimp.dynamics import (
     equilibria,
     equilibrium,
     forces,
+    forces_of,
     frequency_response,
     linearize,
     mode_motion,
@@ -49,7 +50,9 @@ from openimp.results import (
     Linearization,
     ModeMap,
     Modes,
+    SearchStatus,
     StateSpace,
+    StepKind,
     Trajectory,
     TransferFunction,
 )
@@ -88,8 +91,10 @@ __all__ = [
     "Modes",
     "OneWayDamper",
     "OpenIMPError",
+    "SearchStatus",
     "State",
     "StateSpace",
+    "StepKind",
     "System",
     "Trajectory",
     "TransferFunction",
@@ -98,6 +103,7 @@ __all__ = [
     "equilibria",
     "equilibrium",
     "forces",
+    "forces_of",
     "frequency_response",
     "linearize",
     "load",

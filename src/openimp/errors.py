@@ -3,11 +3,16 @@
 Every error a user can cause is an :class:`InputError` whose message names the
 element (body, joint, statement, line) and says what to change.  Failures of an
 analysis on valid input (an unreachable posture, a singular system) are
-:class:`AnalysisError` and carry whatever was already computed.
+:class:`AnalysisError` and carry whatever was already computed.  A renamed
+argument keeps its old name for one release: :func:`deprecated` and :func:`renamed`
+give the one warning every analysis uses.
 """
 
 from __future__ import annotations
 
+import sys
+import warnings
+from collections.abc import Mapping
 from typing import Any
 
 
@@ -52,3 +57,39 @@ class AnalysisError(OpenIMPError, RuntimeError):
     def __init__(self, message: str, partial: Any = None) -> None:
         super().__init__(message)
         self.partial = partial
+
+
+# ----------------------------------------------------------------------------- deprecations
+def _caller_level() -> int:
+    """The ``stacklevel`` of the first frame outside openimp, as seen from the caller of
+    :func:`deprecated` (so the warning names the user's line, however deep the call)."""
+    frame = sys._getframe(2)
+    level = 2
+    while frame is not None:
+        name = frame.f_globals.get("__name__", "")
+        if name != "openimp" and not name.startswith("openimp."):
+            return level
+        frame = frame.f_back
+        level += 1
+    return level
+
+
+def deprecated(where: str, old: str, new: str) -> None:
+    """Warn (:class:`DeprecationWarning`, attributed to the user's line) that ``old`` is a
+    name of ``where`` kept for one release and that ``new`` replaces it."""
+    warnings.warn(f"{where}: {old} is deprecated and will be removed in the next release; "
+                  f"use {new}", DeprecationWarning, stacklevel=_caller_level())
+
+
+def renamed(where: str, options: dict[str, Any], renames: Mapping[str, str]) -> dict[str, Any]:
+    """Keyword arguments under their current names: every old name of ``renames`` (old ->
+    new) found in ``options`` is moved to its new name with a :func:`deprecated` warning.
+    Giving both names is an :class:`InputError`.  ``options`` is not changed."""
+    out = dict(options)
+    for old, new in renames.items():
+        if old in out:
+            if new in out:
+                raise InputError(f"{where}: give {new} only ({old} is its deprecated name)")
+            deprecated(where, old, new)
+            out[new] = out.pop(old)
+    return out

@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
+from enum import IntEnum
 from typing import Any
 
 import numpy as np
@@ -1142,6 +1143,34 @@ class ModeMap:
         return cols
 
 
+class SearchStatus(IntEnum):
+    """How an equilibrium search ended (the codes of the compiled search,
+    :mod:`openimp.dynamics.statics`); ``str()`` gives the words of
+    :attr:`Equilibrium.status`."""
+
+    BALANCED = 1  #: every generalized force on the FGCs within the tolerance
+    NO_FREE = 2  #: every freedom is specified: only the holding forces are computed
+    CAPPED = 3  #: the cap on search iterations was reached (``max_iter``)
+    FAILED = 4  #: the loops could not be closed, or the loads did work against every step
+
+    def __str__(self) -> str:
+        return {1: "balanced", 2: "no free coordinate", 3: "step cap", 4: "failed"}[self.value]
+
+
+class StepKind(IntEnum):
+    """The kind of one step of an equilibrium search (the compiled codes); ``str()`` gives
+    the word of :attr:`Equilibrium.history`."""
+
+    NEWTON = 0  #: a Newton step (12.3, 12.4)
+    DESCENT = 1  #: along the load, steepest descent (12.9)
+    MODIFIED = 2  #: Newton with every eigenvalue of an indefinite K_FF by its magnitude
+    NEUTRAL = 3  #: a neutral freedom moved along its reduced load (12.6 b)
+    ESCAPE = 4  #: leaving an unstable equilibrium along its mode of instability
+
+    def __str__(self) -> str:
+        return self.name.lower()
+
+
 @dataclass
 class Equilibrium:
     """A static equilibrium (book ch 12) and how the search reached it, model units.
@@ -1149,7 +1178,8 @@ class Equilibrium:
     ``q`` (nq,): the posture; ``coords`` the generalized coordinates there and
     ``specified`` (f,) which are SGCs (held) rather than FGCs (searched);
     ``converged``, ``status`` (``"balanced"``, ``"step cap"``, ``"no free
-    coordinate"``, ``"failed"``), ``steps`` (search steps), ``evaluations``
+    coordinate"``, ``"failed"``; ``code``: the same as a :class:`SearchStatus`),
+    ``steps`` (search steps), ``evaluations``
     (residual evaluations, stiffness ones included); ``residual`` (f,) the
     generalized force left on every coordinate (12.1; on the FGCs the
     unbalance, at most ``force_tol`` when converged; on the SGCs minus the
@@ -1189,6 +1219,11 @@ class Equilibrium:
     messages: list[str] = field(default_factory=list)
     t: float = 0.0
     forces: Any = None
+
+    @property
+    def code(self) -> SearchStatus:
+        """:attr:`status` as a :class:`SearchStatus` (prints by name: ``CAPPED``)."""
+        return next(c for c in SearchStatus if str(c) == self.status)
 
     @property
     def free(self) -> list[str]:

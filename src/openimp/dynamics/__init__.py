@@ -15,7 +15,8 @@ linearisation, time response) call:
 * :mod:`~openimp.dynamics.laws`: load laws (callables) evaluated per step;
 * :mod:`~openimp.dynamics.linear`: the linearized equations about a set point
   (ch 11), compiled;
-* :mod:`~openimp.dynamics.analysis`: :func:`forces`, the Python entry;
+* :mod:`~openimp.dynamics.analysis`: :func:`forces` (a motion solved there) and
+  :func:`forces_of` (a solved one), the Python entries;
 * :mod:`~openimp.dynamics.statics`, :mod:`~openimp.dynamics.equilibrium`: the
   static residual and stiffness (compiled) and :func:`equilibrium`,
   :func:`equilibria` (ch 12);
@@ -27,7 +28,7 @@ linearisation, time response) call:
   :func:`simulate`, the time response (ch 14).
 """
 
-from openimp.dynamics.analysis import forces
+from openimp.dynamics.analysis import forces, forces_of
 from openimp.dynamics.equilibrium import equilibria, equilibrium
 from openimp.dynamics.laws import BumpStop, LiftOff, LoadState, OneWayDamper
 from openimp.dynamics.response import simulate
@@ -42,6 +43,6 @@ from openimp.dynamics.vibration import (
 )
 
 __all__ = ["BumpStop", "LiftOff", "LoadState", "OneWayDamper",
-           "equilibria", "equilibrium", "forces", "frequency_response",
+           "equilibria", "equilibrium", "forces", "forces_of", "frequency_response",
            "linearize", "mode_motion", "modes", "modes_along", "simulate",
            "state_space", "transfer_function"]

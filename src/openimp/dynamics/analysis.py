@@ -1,10 +1,11 @@
 """Force analysis of a prescribed motion (book 11.14, ch 17): the Python entry.
 
-:func:`forces` takes a solved motion (a :class:`~openimp.results.Trajectory`
-from :func:`openimp.sweep`, with or without rates) and returns a
-:class:`~openimp.results.Forces`: the driving force of every generalized
-coordinate, the reaction in every joint, the force in every element, the
-energies and the power of every load at every step.
+:func:`forces` solves a motion of a System (the arguments of
+:func:`openimp.sweep`) and :func:`forces_of` takes one already solved (a
+:class:`~openimp.results.Trajectory` from :func:`openimp.sweep`, with or
+without rates); both return a :class:`~openimp.results.Forces`: the driving
+force of every generalized coordinate, the reaction in every joint, the force
+in every element, the energies and the power of every load at every step.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from openimp.dynamics.inverse import (
     sweep_forces,
 )
 from openimp.dynamics.laws import law_values
-from openimp.errors import InputError
+from openimp.errors import InputError, deprecated
 from openimp.kinematics.sweep import (
     Drive,
     Solver,
@@ -32,55 +33,70 @@ from openimp.kinematics.sweep import (
 )
 from openimp.kinematics.track import tracker
 from openimp.results import Forces, Trajectory
-from openimp.system import ELEMENT_KINDS, System, make_data, make_dyn_data, make_state
+from openimp.system import ELEMENT_KINDS, State, System, make_data, make_dyn_data, make_state
+from openimp.workspace import WORKSPACES
 
 #: IMP's ZERO (INDETERM): the largest incompatibility (17.18) of a determinate component
 INDETERMINATE = 1e-4
 
 
-def forces(source: Trajectory | System, drivers: Any = None, rates: Any = None,
-           accels: Any = None, *, reactions: bool = True,
-           indeterminate: float = INDETERMINATE, pivot_tol: float = 1e-10,
-           **sweep_options: Any) -> Forces:
+def forces(system: System, drivers: Any = None, rates: Any = None, accels: Any = None, *,
+           q: Any = None, state: State | None = None, specified: Any = (),
+           reactions: bool = True, indeterminate: float = INDETERMINATE,
+           pivot_tol: float = 1e-10, **sweep_options: Any) -> Forces:
     """Driving forces, joint reactions, element forces, energies and powers along a
     motion in which every freedom is specified (the drivers, and the free
-    coordinates held as IMP holds them in kinematic mode).
+    coordinates held as IMP holds them in kinematic mode), solved here.
 
-    ``source`` is either a solved :class:`~openimp.results.Trajectory` (a sweep
-    with or without rates: without, the motion is quasi-static, as IMP's
-    kinematic mode without DATA VELOCITY), or a :class:`~openimp.system.System`
-    with the arguments of :func:`openimp.sweep` (``drivers``, ``rates``,
-    ``accels`` or ``motion=``/``times=``, and its options): then the sweep is
-    solved and every step's forces are evaluated as it is solved, from the
-    same elimination (one pass; rates 0 where none are given), and the
-    trajectory is ``result.trajectory``.  ``indeterminate``: the
-    compatibility tolerance (17.18) above which a reaction component is
-    statically indeterminate (IMP's ZERO (INDETERM)).
+    The arguments are those of :func:`openimp.sweep` (``drivers``, ``rates``,
+    ``accels`` or ``motion=``/``times=``; ``q`` or ``state=`` the start;
+    ``specified`` held coordinates; and its options): the sweep is solved and
+    every step's forces are evaluated as it is solved, from the same
+    elimination (one pass; rates 0 where none are given), and the trajectory
+    is ``result.trajectory``.  ``indeterminate``: the compatibility tolerance
+    (17.18) above which a reaction component is statically indeterminate
+    (IMP's ZERO (INDETERM)).  The forces of a motion already solved:
+    :func:`forces_of`.  ``forces(trajectory)`` is the deprecated form of
+    ``forces_of(trajectory)``.
     """
-    if not (isinstance(indeterminate, float | int) and 0 < indeterminate < np.inf):
-        raise InputError(f"indeterminate must be a positive tolerance, got {indeterminate!r}")
-    opt = ForceOptions(float(pivot_tol), float(indeterminate), bool(reactions))
-    if isinstance(source, System):
-        if source.laws:  # laws read the solved motion: solve it first, then evaluate
-            tr = sweep(source, drivers, rates, accels, pivot_tol=pivot_tol, **sweep_options)
-            return forces(tr, reactions=reactions, indeterminate=indeterminate,
-                          pivot_tol=pivot_tol)
-        direct = _open_chain(source, drivers, rates, accels, sweep_options, opt)
-        if direct is not None:
-            return direct
-        kernel = _SweepForces(source, opt)
-        tr = sweep(source, drivers, rates, accels, pivot_tol=pivot_tol, kernel=kernel,
+    if isinstance(system, Trajectory):  # the overloaded form of the last release
+        if drivers is not None or rates is not None or accels is not None or sweep_options \
+                or q is not None or state is not None or specified:
+            raise InputError("forces(trajectory) takes no drivers or sweep options: they "
+                             "belong to the sweep that solved the trajectory")
+        deprecated("forces", "forces(trajectory)", "forces_of(trajectory)")
+        return forces_of(system, reactions=reactions, indeterminate=indeterminate,
+                         pivot_tol=pivot_tol)
+    if not isinstance(system, System):
+        raise InputError(f"forces() takes a compiled System and the motion (or "
+                         f"forces_of(trajectory) a solved one), got {type(system).__name__}")
+    opt = _options(reactions, indeterminate, pivot_tol)
+    start = dict(q=q, state=state, specified=specified)
+    if system.laws:  # laws read the solved motion: solve it first, then evaluate
+        tr = sweep(system, drivers, rates, accels, pivot_tol=pivot_tol, **start,
                    **sweep_options)
-        assert kernel.out is not None
-        return _result(source, tr, ForceOut(*(a[:tr.nsteps] for a in kernel.out)),
-                       reactions)
-    if drivers is not None or rates is not None or accels is not None or sweep_options:
-        raise InputError("forces(trajectory) takes no drivers or sweep options: they belong "
-                         "to the sweep that solved the trajectory")
-    if not isinstance(source, Trajectory):
-        raise InputError(f"forces() takes the Trajectory of a sweep or a System, got "
-                         f"{type(source).__name__}")
-    trajectory = source
+        return forces_of(tr, reactions=reactions, indeterminate=indeterminate,
+                         pivot_tol=pivot_tol)
+    direct = _open_chain(system, drivers, rates, accels, sweep_options, opt)
+    if direct is not None:
+        return direct
+    kernel = _SweepForces(system, opt)
+    tr = sweep(system, drivers, rates, accels, pivot_tol=pivot_tol, kernel=kernel, **start,
+               **sweep_options)
+    assert kernel.out is not None
+    return _result(system, tr, ForceOut(*(a[:tr.nsteps] for a in kernel.out)), reactions)
+
+
+def forces_of(trajectory: Trajectory, *, reactions: bool = True,
+              indeterminate: float = INDETERMINATE, pivot_tol: float = 1e-10) -> Forces:
+    """The :class:`~openimp.results.Forces` of :func:`forces` along a solved motion: a
+    :class:`~openimp.results.Trajectory` of a sweep, with or without rates (without,
+    the motion is quasi-static, as IMP's kinematic mode without DATA VELOCITY), or
+    of an equilibrium path."""
+    if not isinstance(trajectory, Trajectory):
+        raise InputError(f"forces_of() takes the Trajectory of a sweep, got "
+                         f"{type(trajectory).__name__}; forces() solves a System's motion")
+    opt = _options(reactions, indeterminate, pivot_tol)
     system: System = trajectory.system
     Q, QD, QDD = trajectory.internal()
     n, nq = Q.shape
@@ -94,10 +110,23 @@ def forces(source: Trajectory | System, drivers: Any = None, rates: Any = None,
     out = _allocate(system, n)
     S = make_state(system)
     S.sgc[:] = trajectory.specified
-    data = make_data(system, nq)
-    dyn = make_dyn_data(system, nq)
-    forces_steps(system.KP, data.DP, system.YP, dyn.ZP, S, system.gen, rows, opt, out)
+    with WORKSPACES.use(system, "forces", _scratch) as (data, dyn):
+        forces_steps(system.KP, data.DP, system.YP, dyn.ZP, S, system.gen, rows, opt, out)
     return _result(system, trajectory, out, reactions)
+
+
+def _options(reactions: Any, indeterminate: Any, pivot_tol: Any) -> ForceOptions:
+    """The checked options of a force analysis."""
+    if not (isinstance(indeterminate, float | int) and 0 < indeterminate < np.inf):
+        raise InputError(f"indeterminate must be a positive tolerance, got {indeterminate!r}")
+    if not (isinstance(pivot_tol, float | int) and 0 < pivot_tol < np.inf):
+        raise InputError(f"pivot_tol must be a positive tolerance, got {pivot_tol!r}")
+    return ForceOptions(float(pivot_tol), float(indeterminate), bool(reactions))
+
+
+def _scratch(system: System) -> tuple[Any, Any]:
+    """(Data, DynData) of one force analysis (:data:`~openimp.workspace.WORKSPACES`)."""
+    return make_data(system, system.nq), make_dyn_data(system, system.nq)
 
 
 def _open_chain(system: System, drivers: Any, rates: Any, accels: Any,
@@ -128,8 +157,9 @@ def _open_chain(system: System, drivers: Any, rates: Any, accels: Any,
     out = _allocate(system, n)
     S = make_state(system)
     S.sgc[:] = True
-    open_chain_steps(system.KP, make_data(system, nq).DP, system.YP,
-                     make_dyn_data(system, nq).ZP, S, system.gen, rows, opt, out)
+    with WORKSPACES.use(system, "forces", _scratch) as (data, dyn):
+        open_chain_steps(system.KP, data.DP, system.YP, dyn.ZP, S, system.gen, rows, opt,
+                         out)
     return _result(system, tr, out, opt.reactions)
 
 

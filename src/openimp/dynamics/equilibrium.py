@@ -35,7 +35,7 @@ residual, K_FF dpsi_F = F_F (12.3, 12.4), with
 from __future__ import annotations
 
 import math
-import weakref
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -43,17 +43,8 @@ import numpy as np
 
 from openimp.dynamics.laws import law_values_at
 from openimp.dynamics.statics import (
-    BALANCED,
-    CAPPED,
-    DESCENT,
-    ESCAPE,
-    FAILED,
-    MODIFIED,
-    NEUTRAL_STEP,
-    NEWTON,
-    NO_FREE,
     STEPPED,
-    SearchOptions,
+    StepOptions,
     close_posture,
     make_history,
     make_search_buffers,
@@ -62,15 +53,17 @@ from openimp.dynamics.statics import (
     search_step,
     static_point,
 )
-from openimp.errors import AnalysisError, InputError
+from openimp.errors import AnalysisError, InputError, renamed
+from openimp.kinematics.inputs import names_of, start_state
 from openimp.kinematics.track import tracker
-from openimp.results import Equilibrium, EquilibriumPath, Trajectory
-from openimp.system import DAMPER, State, System, make_data, make_dyn_data, make_state
+from openimp.results import Equilibrium, EquilibriumPath, SearchStatus, StepKind, Trajectory
+from openimp.system import DAMPER, State, System, make_data, make_dyn_data
+from openimp.workspace import WORKSPACES
 
-#: relative force tolerance: |F_i| <= RTOL x the size of the loads
+#: relative force tolerance (``force_rtol``): |F_i| <= RTOL x the size of the loads
 RTOL = 1e-10
-#: IMP's step cap (ZERO (EQUILIB) nsteps)
-MAX_STEPS = 25
+#: IMP's cap on search iterations (ZERO (EQUILIB) nsteps; ``max_iter``)
+MAX_ITER = 25
 #: the increment limit of 12.4 (radians or internal lengths), the whole vector scaled
 STEP_LIMIT = 1.0
 #: relative size (of the largest stiffness and the loads' size) below which a pivot of
@@ -83,49 +76,85 @@ H_LAW = 1e-5
 
 
 # ----------------------------------------------------------------------------- options
-@dataclass
-class Options:
-    """Search options, internal units where they apply (see :func:`equilibrium`)."""
+@dataclass(frozen=True)
+class SearchOptions:
+    """The options of :func:`equilibrium` and :func:`equilibria`, validated by
+    :func:`search_options` (model units where they have any).
+
+    ``force_tol``: the largest generalized force left on an FGC, an absolute
+    force (or moment for an angle), model units; by default ``force_rtol``
+    times the size of the loads (the sum of the magnitudes of every body
+    wrench and joint load, internal units); ``step_tol``: with it (radians or
+    lengths, IMP's ZERO (EQUILIB)) the next Newton correction of every FGC
+    must also be below it; ``max_iter``: the cap on search iterations (IMP's
+    25); ``step_limit``: the largest step (12.4; radians or internal lengths,
+    the whole vector scaled); ``neutral_tol``: a pivot of K_FF (or an
+    eigenvalue) below this fraction of the largest stiffness and the loads'
+    size is neutral (12.6); ``pivot_tol``: of the elimination; ``seek_stable``:
+    leave unstable equilibria and saddles for a stable posture (otherwise the
+    nearest equilibrium of any kind); ``forces``: run the force analysis at
+    the equilibrium; ``progress``: :func:`equilibria` only, ``progress(done,
+    total)`` (steps done, steps) after every step.
+    """
 
     force_tol: float | None = None
-    rtol: float = RTOL
+    force_rtol: float = RTOL
     step_tol: float | None = None
-    max_steps: int = MAX_STEPS
+    max_iter: int = MAX_ITER
     step_limit: float = STEP_LIMIT
     neutral_tol: float = NEUTRAL
     pivot_tol: float = 1e-10
     seek_stable: bool = True
+    forces: bool = True
+    progress: Callable[[float, float], None] | None = None
 
 
-def _options(force_tol: Any, rtol: Any, step_tol: Any, max_steps: Any, step_limit: Any,
-             neutral_tol: Any, pivot_tol: Any, seek_stable: Any) -> Options:
-    def pos(x: Any, what: str, none: bool = False) -> float | None:
+#: the deprecated names of the options (old -> new), kept for one release
+RENAMED = {"rtol": "force_rtol", "max_steps": "max_iter"}
+
+
+def search_options(where: str, options: dict[str, Any], path: bool = False) -> SearchOptions:
+    """The :class:`SearchOptions` of the keyword arguments ``options`` of ``where``
+    (``path``: :func:`equilibria`, which takes ``progress``), every value checked;
+    deprecated names (:data:`RENAMED`) are accepted with a DeprecationWarning."""
+    o = renamed(where, options, RENAMED)
+    known = set(SearchOptions.__dataclass_fields__) - (set() if path else {"progress"})
+    unknown = sorted(o.keys() - known)
+    if unknown:
+        raise InputError(f"{where}: unknown option(s) {', '.join(unknown)}; the options are "
+                         f"{', '.join(sorted(known))}")
+
+    def pos(what: str, none: bool = False) -> Any:
+        x = o.get(what, getattr(SearchOptions, what))
         if x is None and none:
             return None
         try:
             v = float(x)
         except (TypeError, ValueError):
-            raise InputError(f"{what} must be a positive number, got {x!r}") from None
+            raise InputError(f"{where}: {what} must be a positive number, got {x!r}") from None
         if not (v > 0 and math.isfinite(v)):
-            raise InputError(f"{what} must be a positive number, got {x!r}")
+            raise InputError(f"{where}: {what} must be a positive number, got {x!r}")
         return v
 
-    if not isinstance(seek_stable, bool | np.bool_):
-        raise InputError(f"seek_stable must be True or False, got {seek_stable!r}")
-    if isinstance(max_steps, bool) or not isinstance(max_steps, int | np.integer) \
-            or max_steps < 1:
-        raise InputError(f"max_steps must be a positive whole number, got {max_steps!r}")
-    return Options(pos(force_tol, "force_tol", True), pos(rtol, "rtol"),  # type: ignore[arg-type]
-                   pos(step_tol, "step_tol", True), int(max_steps),
-                   pos(step_limit, "step_limit"), pos(neutral_tol, "neutral_tol"),  # type: ignore[arg-type]
-                   pos(pivot_tol, "pivot_tol"), bool(seek_stable))  # type: ignore[arg-type]
+    def flag(what: str) -> bool:
+        x = o.get(what, getattr(SearchOptions, what))
+        if not isinstance(x, bool | np.bool_):
+            raise InputError(f"{where}: {what} must be True or False, got {x!r}")
+        return bool(x)
+
+    cap = o.get("max_iter", MAX_ITER)
+    if isinstance(cap, bool) or not isinstance(cap, int | np.integer) or cap < 1:
+        raise InputError(f"{where}: max_iter must be a positive whole number, got {cap!r}")
+    progress = o.get("progress")
+    if progress is not None and not callable(progress):
+        raise InputError(f"{where}: progress must be a callable progress(done, total), got "
+                         f"{progress!r}")
+    return SearchOptions(pos("force_tol", True), pos("force_rtol"), pos("step_tol", True),
+                         int(cap), pos("step_limit"), pos("neutral_tol"), pos("pivot_tol"),
+                         flag("seek_stable"), flag("forces"), progress)
 
 
 # ----------------------------------------------------------------------------- the search
-_KINDS = {NEWTON: "newton", DESCENT: "descent", MODIFIED: "modified",
-          NEUTRAL_STEP: "neutral", ESCAPE: "escape"}
-
-
 def _sym_eig(K: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Eigenvalues (ascending) and vectors of the symmetric part of K."""
     if K.size == 0:
@@ -136,8 +165,8 @@ def _sym_eig(K: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 class _Scratch:
-    """The arrays of one system's searches (made once per System: allocating them costs
-    more than a search step)."""
+    """The arrays of one search (from :data:`~openimp.workspace.WORKSPACES`, kind
+    ``"equilibrium"``: allocating them costs more than a search step)."""
 
     def __init__(self, system: System) -> None:
         nq, nb = system.nq, len(system.bodies)
@@ -153,22 +182,6 @@ class _Scratch:
         self.bufs = make_search_buffers(nq, nb, vs, gs)
         self.F, self.K, self.cols = self.bufs.now
         self.loaded = _loaded(system)
-        self.busy = False
-
-
-_SCRATCH: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-
-
-def _scratch(system: System) -> _Scratch:
-    """The system's scratch, marked busy; a fresh one while it is busy (a search started
-    inside another's callback, or from another thread)."""
-    got = _SCRATCH.get(system)
-    if got is None:
-        got = _SCRATCH[system] = _Scratch(system)
-    elif got.busy:
-        got = _Scratch(system)
-    got.busy = True
-    return got
 
 
 class _Search:
@@ -177,16 +190,16 @@ class _Search:
     escapes from unstable equilibria and, for load laws, their values refreshed and
     the stiffness differenced at every step."""
 
-    def __init__(self, system: System, opts: Options) -> None:
+    def __init__(self, system: System, opts: SearchOptions) -> None:
         self.system = system
         self.o = opts
-        sc = _scratch(system)
+        sc = WORKSPACES.take(system, "equilibrium", _Scratch)
         self.sc = sc
         self.data, self.dyn, self.E = sc.data, sc.dyn, sc.E
         self.t = 0.0
         self.iterations = 0
-        self.opts = SearchOptions(
-            pivot_tol=float(opts.pivot_tol), rtol=float(opts.rtol),
+        self.opts = StepOptions(
+            pivot_tol=float(opts.pivot_tol), rtol=float(opts.force_rtol),
             force_tol=-1.0 if opts.force_tol is None else float(opts.force_tol),
             step_tol=-1.0 if opts.step_tol is None else float(opts.step_tol),
             limit=float(opts.step_limit), neutral=float(opts.neutral_tol),
@@ -197,8 +210,8 @@ class _Search:
         self.state = self.record[0]
 
     def release(self) -> None:
-        """Give the scratch back to the system."""
-        self.sc.busy = False
+        """Give the scratch back to the system's pool."""
+        WORKSPACES.give(self.system, "equilibrium", self.sc)
 
     @property
     def evaluations(self) -> int:
@@ -285,29 +298,28 @@ class _Search:
         counts = {"neutral": 0, "escape": 0}
         steps = 0
         if not sy.laws:  # the whole search in one compiled call
-            hist = make_history(o.max_steps)
+            hist = make_history(o.max_iter)
             code = search_loop(sy.KP, sc.data.DP, sy.YP, sc.dyn.ZP, S, sy.gen, opts, rec,
                                sc.bufs, hist)
             steps = int(st.steps)
             counts["escape"], counts["neutral"] = int(st.escapes), int(st.neutral_steps)
-            history = [(_KINDS[int(h.kind)], float(h.fmax), float(h.stepmax))
+            history = [(str(StepKind(int(h.kind))), float(h.fmax), float(h.stepmax))
                        for h in hist[:steps]]
         else:  # load laws: their values and the stiffness refreshed at every step
             while True:
                 self._numeric_k(S)
-                st.may_step = steps < o.max_steps
-                st.may_escape = counts["escape"] < 4 and steps < o.max_steps
+                st.may_step = steps < o.max_iter
+                st.may_escape = counts["escape"] < 4 and steps < o.max_iter
                 code = search_step(sy.KP, sc.data.DP, sy.YP, sc.dyn.ZP, S, sy.gen, opts, rec,
                                    sc.bufs)
                 if code != STEPPED:
                     break
                 steps += 1
-                kind = _KINDS[int(st.kind)]
+                kind = str(StepKind(int(st.kind)))
                 if kind in counts:
                     counts[kind] += 1
                 history.append((kind, float(st.fmax), float(st.stepmax)))
-        status = {BALANCED: "balanced", NO_FREE: "no free coordinate", CAPPED: "step cap",
-                  FAILED: "failed"}[code]
+        status = str(SearchStatus(code))
         if not st.have:  # a failed step left a trial's evaluation in the scratch
             if sy.laws:
                 self._numeric_k(S)
@@ -332,90 +344,70 @@ class _Search:
         o = self.o
         if o.force_tol is not None:
             return o.force_tol / self.sc.bufs.gs[cols]
-        return np.full(cols.size, o.rtol * max(scale, 1e-300))
+        return np.full(cols.size, o.force_rtol * max(scale, 1e-300))
 
 
 # ----------------------------------------------------------------------------- entries
-def _start(system: System, q: Any, specified: Any, t: Any) -> State:
-    from openimp.dynamics.vibration import _floats, _names
-
+def _start(system: System, q: Any, state: Any, specified: Any, t: Any, where: str) -> State:
+    """The start of a search: ``q`` (model units) or ``state`` (a State: its SGCs held
+    too, its rates ignored), the ``specified`` coordinates held, at time ``t`` (default
+    0, or the State's)."""
     if not isinstance(system, System):
-        raise InputError(f"equilibrium takes a compiled System, got {type(system).__name__}")
-    names = _names(specified)
+        raise InputError(f"{where} takes a compiled System, got {type(system).__name__}")
+    names = names_of(specified, where)
     tf = None
     if t is not None:
-        tf = float(_floats(t, "t"))
+        try:
+            tf = float(t)
+        except (TypeError, ValueError):
+            raise InputError(f"{where}: t must be a finite time, got {t!r}") from None
         if not math.isfinite(tf):
-            raise InputError(f"t must be a finite time, got {t!r}")
-    if isinstance(q, State):
-        if q.q.shape != (system.nq,):
-            raise InputError(f"the State holds {q.q.shape[0]} joint variables, the system "
-                             f"{system.nq}")
-        S = q.copy()
-        S.qd[:] = 0.0
-        S.qdd[:] = 0.0
-        if tf is not None:
-            S.t[0] = tf
-        for key in names:
-            S.sgc[system.var_index(key)] = True
-        return S
-    qm = system.modeling_q if q is None else _floats(q, "q")
-    if qm.shape != (system.nq,) or not np.all(np.isfinite(qm)):
-        raise InputError(f"q must hold the {system.nq} joint variables as finite numbers, "
-                         f"got shape {qm.shape}")
-    S = make_state(system, system.to_internal(qm), 0.0 if tf is None else tf)
+            raise InputError(f"{where}: t must be a finite time, got {t!r}")
+    S = start_state(system, q, state, where, 0.0 if tf is None else tf)
+    S.qd[:] = 0.0
+    S.qdd[:] = 0.0
+    if tf is not None:
+        S.t[0] = tf
     for key in names:
         S.sgc[system.var_index(key)] = True
     return S
 
 
-def equilibrium(system: System, q: Any = None, *, specified: Any = (), t: float | None = None,
-                force_tol: float | None = None, rtol: float = RTOL,
-                step_tol: float | None = None, max_steps: int = MAX_STEPS,
-                step_limit: float = STEP_LIMIT, neutral_tol: float = NEUTRAL,
-                pivot_tol: float = 1e-10, seek_stable: bool = True,
-                forces: bool = True) -> Equilibrium:
+def equilibrium(system: System, q: Any = None, *, state: State | None = None,
+                specified: Any = (), t: float | None = None, **options: Any) -> Equilibrium:
     """The static equilibrium of ``system`` nearest the posture ``q`` (book ch 12).
 
-    ``q``: joint variables (nq,), model units (default the modeling posture),
-    or a :class:`~openimp.system.State` (internal units; its SGCs ``sgc`` are
-    held too, its rates are ignored); the posture is closed first with the
-    generalized coordinates held.  ``specified``: SGCs (joint names or
-    ``"joint.var"``) held at their values in ``q``; the other generalized
+    ``q``: the start posture in model units (the nq joint variables, or a
+    mapping of joint variables to values; default the modeling posture), or
+    ``state``: a :class:`~openimp.system.State` (internal units; its SGCs
+    ``sgc`` are held too, its rates are ignored); the posture is closed first
+    with the generalized coordinates held.  ``specified``: SGCs (joint names
+    or ``"joint.var"``) held at their start values; the other generalized
     coordinates (FGCs) move until the loads balance.  ``t``: the time that
     load laws read (default 0, or the State's).
 
-    Convergence: every generalized force left on the FGCs is at most
-    ``force_tol`` (model units: force, or moment for an angle), by default
-    ``rtol`` times the size of the loads (the sum of the magnitudes of every
-    body wrench and joint load, internal units); with ``step_tol`` (model
-    units: radians or lengths; IMP's ZERO (EQUILIB)) the next Newton
-    correction of every FGC must also be below it.  ``max_steps``: the cap
-    on search steps (IMP's 25);
-    ``step_limit``: the largest step (12.4; radians or internal lengths, the
-    whole vector scaled); ``neutral_tol``: a pivot of K_FF (or an eigenvalue)
-    below this fraction of the largest stiffness and the loads' size is
-    neutral (12.6); ``seek_stable``: leave unstable equilibria and saddles
-    for a stable posture (otherwise the nearest equilibrium of any kind);
-    ``forces``: run the force analysis at the equilibrium (joint reactions,
-    element forces, holding forces).
+    ``options`` (:class:`SearchOptions`, checked by :func:`search_options`):
+    ``force_tol`` (an absolute force, model units) or ``force_rtol`` (relative
+    to the loads' size) for convergence, ``step_tol``, ``max_iter`` (IMP's 25),
+    ``step_limit``, ``neutral_tol``, ``pivot_tol``, ``seek_stable``, ``forces``
+    (run the force analysis at the equilibrium: joint reactions, element
+    forces, holding forces).  ``rtol`` and ``max_steps`` are the deprecated
+    names of ``force_rtol`` and ``max_iter``.
 
     The search stops without an error: :attr:`Equilibrium.converged` and
     :attr:`~Equilibrium.status` say how it ended (``"balanced"``, ``"step
-    cap"``, ``"no free coordinate"``, ``"failed"``) and the messages why.
-    An unassembled start posture is an :class:`InputError`.
+    cap"``, ``"no free coordinate"``, ``"failed"``; :attr:`~Equilibrium.code`
+    the same as a :class:`~openimp.results.SearchStatus`) and the messages
+    why.  An unassembled start posture is an :class:`InputError`.
     """
-    opts = _options(force_tol, rtol, step_tol, max_steps, step_limit, neutral_tol, pivot_tol,
-                    seek_stable)
-    if not isinstance(forces, bool | np.bool_):
-        raise InputError(f"forces must be True or False, got {forces!r}")
-    S = _start(system, q, specified, t)
+    opts = search_options("equilibrium", options)
+    S = _start(system, q, state, specified, t, "equilibrium")
     search = _Search(system, opts)
     try:
         search.t = S.time
         _assemble(search, S)
         raw = search.run(S)
-        return _result(system, search, S, raw, forces, opts)
+        return _result(system, search, S, raw, opts.forces, opts)
     finally:
         search.release()
 
@@ -447,7 +439,7 @@ def _assemble(search: _Search, S: State) -> None:
 
 
 def _result(system: System, search: _Search, S: State, raw: dict[str, Any], want_forces: bool,
-            opts: Options) -> Equilibrium:
+            opts: SearchOptions) -> Equilibrium:
     """The :class:`~openimp.results.Equilibrium` of a finished search (model units)."""
     cols = raw["cols"]
     sc = search.sc
@@ -556,9 +548,9 @@ def _result(system: System, search: _Search, S: State, raw: dict[str, Any], want
         potential=raw["pe"] * Ls * Ls, history=raw["history"], trajectory=tr,
         messages=messages, t=S.time)
     if want_forces:
-        from openimp.dynamics.analysis import forces as _forces
+        from openimp.dynamics.analysis import forces_of
 
-        eq.forces = _forces(tr, pivot_tol=opts.pivot_tol)
+        eq.forces = forces_of(tr, pivot_tol=opts.pivot_tol)
     return eq
 
 
@@ -620,17 +612,20 @@ def _mode_text(names: list[str], v: np.ndarray) -> str:
 
 # ----------------------------------------------------------------------------- paths
 def equilibria(system: System, path: Any = None, *, times: Any = None, q: Any = None,
-               specified: Any = (), **options: Any) -> EquilibriumPath:
+               state: State | None = None, specified: Any = (), **options: Any
+               ) -> EquilibriumPath:
     """A path of equilibria, each searched from the last (the book's W(psi) curve, 12.1).
 
     ``path``: a mapping SGC name -> values (model units, one per step; the
     named coordinates are held there, with any ``specified`` ones at their
-    values in ``q``); ``times``: (steps,) the time of every step, which the
+    start values); ``times``: (steps,) the time of every step, which the
     load laws read (a load stepped through values is a law of t).  At least
-    one of the two sets the number of steps.  ``options``: those of
-    :func:`equilibrium` (``forces`` runs one force analysis of the whole path),
-    and ``progress``: a callable (steps done, steps) called after every step.
-    Ctrl-C ends the path with the steps done (``message`` says so).
+    one of the two sets the number of steps.  ``q`` or ``state``: the start,
+    as in :func:`equilibrium`.  ``options``: those of :func:`equilibrium`
+    (``forces`` runs one force analysis of the whole path), and
+    ``progress(done, total)``: called after every step with the steps done
+    and the steps of the path.  Ctrl-C ends the path with the steps done
+    (``message`` says so).
 
     Every step's :class:`~openimp.results.Equilibrium` is kept; a step that is
     not balanced ends the path there with its message (the steps before it are
@@ -640,66 +635,48 @@ def equilibria(system: System, path: Any = None, *, times: Any = None, q: Any = 
     path, and, on an SGC path, where a holding force passes an extremum (the
     limit load under which a dead load would snap the mechanism over).
     """
-    want_forces = options.pop("forces", True)
-    if not isinstance(want_forces, bool | np.bool_):
-        raise InputError(f"forces must be True or False, got {want_forces!r}")
-    progress = options.pop("progress", None)
-    if progress is not None and not callable(progress):
-        raise InputError(f"equilibria: progress must be a callable (steps done, steps), got "
-                         f"{progress!r}")
-    opts = _options(options.pop("force_tol", None), options.pop("rtol", RTOL),
-                    options.pop("step_tol", None), options.pop("max_steps", MAX_STEPS),
-                    options.pop("step_limit", STEP_LIMIT), options.pop("neutral_tol", NEUTRAL),
-                    options.pop("pivot_tol", 1e-10), options.pop("seek_stable", True))
-    if options:
-        raise InputError(f"equilibria: unknown option(s) {', '.join(sorted(options))}")
+    opts = search_options("equilibria", options, path=True)
     path = {} if path is None else path
     if not hasattr(path, "items"):
         raise InputError("equilibria: path must map SGC names to arrays of values")
     names = list(path)
     cols = [system.var_index(k) for k in names] if isinstance(system, System) else []
-    S = _start(system, q, list(specified) + names, 0.0)
-    n = None
-    vals = []
-    for k, c in zip(names, cols, strict=True):
-        try:
-            arr = np.atleast_1d(np.asarray(path[k], float))
-        except (TypeError, ValueError):
-            raise InputError(f"equilibria: path[{k!r}] must be numbers, one per step, got "
-                             f"{path[k]!r}") from None
-        if arr.ndim != 1 or not np.all(np.isfinite(arr)) or arr.size == 0:
-            raise InputError(f"equilibria: path[{k!r}] must be finite values, one per step")
-        if n is not None and arr.size != n:
-            raise InputError(f"equilibria: path[{k!r}] has {arr.size} values, the other "
-                             f"inputs {n}")
-        n = arr.size
-        vals.append(arr / system.var_scale[c])
-    if times is not None:
-        try:
-            tt = np.atleast_1d(np.asarray(times, float))
-        except (TypeError, ValueError):
-            raise InputError(f"equilibria: times must be numbers, got {times!r}") from None
-        if tt.ndim != 1 or not np.all(np.isfinite(tt)) or tt.size == 0:
-            raise InputError("equilibria: times must be finite values, one per step")
-        if n is not None and tt.size != n:
-            raise InputError(f"equilibria: times has {tt.size} values, the path {n}")
-        n = tt.size
-    else:
-        tt = None
-    if n is None:
+    S = _start(system, q, state, list(names_of(specified, "equilibria")) + names, 0.0,
+               "equilibria")
+    vals = [_steps(path[k], f"path[{k!r}]") / system.var_scale[c]
+            for k, c in zip(names, cols, strict=True)]
+    tt = None if times is None else _steps(times, "times")
+    sizes = {a.size for a in vals} | ({tt.size} if tt is not None else set())
+    if len(sizes) > 1:
+        given = [f"{k}: {a.size}" for k, a in zip(names, vals, strict=True)]
+        given += [f"times: {tt.size}"] if tt is not None else []
+        raise InputError(f"equilibria: the path and times have different numbers of values "
+                         f"({', '.join(given)})")
+    if not sizes:
         raise InputError("equilibria: give a path of SGC values or the times of load laws")
     search = _Search(system, opts)
     try:
-        steps, message, interrupted = _walk(system, search, S, n, tt, cols, vals, opts,
-                                            progress)
+        steps, message, interrupted = _walk(system, search, S, sizes.pop(), tt, cols, vals,
+                                            opts)
     finally:
         search.release()
-    return _path_result(system, steps, message, interrupted, names, cols, vals, tt, opts,
-                        want_forces)
+    return _path_result(system, steps, message, interrupted, names, cols, vals, tt, opts)
+
+
+def _steps(values: Any, what: str) -> np.ndarray:
+    """(steps,) finite numbers of a path or of its times."""
+    try:
+        arr = np.atleast_1d(np.asarray(values, float))
+    except (TypeError, ValueError):
+        raise InputError(f"equilibria: {what} must be numbers, one per step, got "
+                         f"{values!r}") from None
+    if arr.ndim != 1 or not np.all(np.isfinite(arr)) or arr.size == 0:
+        raise InputError(f"equilibria: {what} must be finite values, one per step")
+    return arr
 
 
 def _walk(system: System, search: _Search, S: State, n: int, tt: np.ndarray | None,
-          cols: list[int], vals: list[np.ndarray], opts: Options, progress: Any
+          cols: list[int], vals: list[np.ndarray], opts: SearchOptions
           ) -> tuple[list[Equilibrium], str, bool]:
     """The steps of a path, each from the last: (equilibria, why it stopped early or "",
     interrupted)."""
@@ -718,8 +695,8 @@ def _walk(system: System, search: _Search, S: State, n: int, tt: np.ndarray | No
             interrupted = True
             break
         steps.append(eq)
-        if progress is not None:
-            progress(k + 1, n)
+        if opts.progress is not None:
+            opts.progress(float(k + 1), float(n))
         if not eq.converged:
             message = f"step {k}: " + "; ".join(m for m in eq.messages
                                                  if not m.startswith("Equilibrium found"))
@@ -730,7 +707,7 @@ def _walk(system: System, search: _Search, S: State, n: int, tt: np.ndarray | No
 
 def _path_result(system: System, steps: list[Equilibrium], message: str, interrupted: bool,
                  names: list[str], cols: list[int], vals: list[np.ndarray],
-                 tt: np.ndarray | None, opts: Options, want_forces: bool) -> EquilibriumPath:
+                 tt: np.ndarray | None, opts: SearchOptions) -> EquilibriumPath:
     """The :class:`~openimp.results.EquilibriumPath` of the steps reached."""
     traj = None
     good = [e for e in steps if e.converged]
@@ -742,18 +719,18 @@ def _path_result(system: System, steps: list[Equilibrium], message: str, interru
                           values=(vals[0][:len(steps)] * system.var_scale[cols[0]]
                                   if names else tt[:len(steps)] if tt is not None
                                   else np.zeros(0)))
-    res.turning_points = _turning_points(res)
+    res.turning_points = turning_points(res)
     res.interrupted = interrupted
-    if want_forces and traj is not None:
-        from openimp.dynamics.analysis import forces as _forces
+    if opts.forces and traj is not None:
+        from openimp.dynamics.analysis import forces_of
 
-        res.forces = _forces(traj, pivot_tol=opts.pivot_tol)
+        res.forces = forces_of(traj, pivot_tol=opts.pivot_tol)
     return res
 
 
 def _path_step(system: System, search: _Search, S: State, k: int, tt: np.ndarray | None,
                cols: list[int], vals: list[np.ndarray], tangent: np.ndarray | None,
-               opts: Options) -> Equilibrium:
+               opts: SearchOptions) -> Equilibrium:
     """The equilibrium of path step ``k``, searched from S (the last equilibrium) with the
     SGCs moved to their values there and the FGCs predicted along ``tangent``."""
     search.t = float(tt[k]) if tt is not None else 0.0
@@ -856,7 +833,7 @@ def _tangent(system: System, eq: Equilibrium, cols: list[int]) -> np.ndarray | N
     return T
 
 
-def _turning_points(res: EquilibriumPath, label: str | None = None,
+def turning_points(res: EquilibriumPath, label: str | None = None,
                     show: Any = None, names: Any = None) -> list[str]:
     """Messages for the turning points of a path.  ``label``: the parameter's name
     (default ``res.parameter``), ``show``: value -> text (default ``{:.6g}``, model

@@ -121,7 +121,7 @@ STEPPED, BALANCED, NO_FREE, CAPPED, FAILED = 0, 1, 2, 3, 4
 NEWTON, DESCENT, MODIFIED, NEUTRAL_STEP, ESCAPE = 0, 1, 2, 3, 4
 
 
-class SearchOptions(NamedTuple):
+class StepOptions(NamedTuple):
     """Options of :func:`search_step` (internal units unless said)."""
 
     pivot_tol: float  #: pivot tolerance of the elimination (ch 6)
@@ -220,7 +220,7 @@ def make_search_buffers(nq: int, nb: int, vs: np.ndarray, gs: np.ndarray) -> Sea
 
 @njit(nrt=False)
 def _evaluate(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | None,
-              opts: SearchOptions, state: np.ndarray, at: Evaluation, bufs: SearchBuffers
+              opts: StepOptions, state: np.ndarray, at: Evaluation, bufs: SearchBuffers
               ) -> int:
     """:func:`static_point` at S.q into ``at`` (K only without numeric_k); counts in the
     record state[0]."""
@@ -240,10 +240,10 @@ def _evaluate(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndar
 
 @njit(nrt=False)
 def search_step(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | None,
-                opts: SearchOptions, state: np.ndarray, bufs: SearchBuffers) -> int:
+                opts: StepOptions, state: np.ndarray, bufs: SearchBuffers) -> int:
     """One step of the equilibrium search (book 12.2-12.6) from the assembled S.q.
 
-    opts: :class:`SearchOptions`; state: a (1,) :data:`SEARCH_STATE` record array
+    opts: :class:`StepOptions`; state: a (1,) :data:`SEARCH_STATE` record array
     (:func:`make_search_state`), kept between steps; bufs: :class:`SearchBuffers`:
     bufs.now the evaluation at S.q (valid when state[0].have; with opts.numeric_k the
     caller fills its K), bufs.trial a trial's, bufs.vs, bufs.gs the coordinate and force
@@ -472,7 +472,7 @@ def _choose(nF: int, npiv: int, bufs: SearchBuffers, eps: float, ftol: float, li
 
 @njit(nrt=False)
 def search_loop(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | None,
-                opts: SearchOptions, state: np.ndarray, bufs: SearchBuffers,
+                opts: StepOptions, state: np.ndarray, bufs: SearchBuffers,
                 hist: np.ndarray) -> int:
     """:func:`search_step` until the search ends (a model without load laws: one compiled
     call per search).  At most hist.shape[0] steps (the step cap); at most 4 of them

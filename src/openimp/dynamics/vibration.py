@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import cmath
 import math
-import weakref
 from typing import Any
 
 import numpy as np
@@ -58,6 +57,7 @@ from openimp.results import (
     TransferFunction,
 )
 from openimp.system import FORCE, TORQUE, State, System, make_data, make_dyn_data, make_state
+from openimp.workspace import WORKSPACES
 
 #: closure tolerance of the postures the motion terms are differenced over
 CLOSE_TOL = 1e-13
@@ -117,7 +117,8 @@ def linearize(system: System, q: Any = None, rates: Any = None, accels: Any = No
     vs = system.var_scale
     psid = _per_coordinate(system, rates, "rates")
     psidd = _per_coordinate(system, accels, "accels")
-    data, dyn, out, work = _scratch(system)
+    scratch = WORKSPACES.take(system, "linearize", _scratch)  # given back when done
+    data, dyn, out, work = scratch
     out.qdpl[:] = 0.0  # the joint rates at the closed postures: written only when moving
     nlaw = len(system.laws)
     moving = motion_terms and bool(np.any(psid) or np.any(psidd))
@@ -171,6 +172,7 @@ def linearize(system: System, q: Any = None, rates: Any = None, accels: Any = No
         float(t), _point_derivatives(system, data, dyn, nf, cols),
         _element_directions(system, data, dyn, nf, cols), _body_screws(system, dyn, nf, cols),
         int(rank), messages)
+    WORKSPACES.give(system, "linearize", scratch)  # (dropped on an error: never shared)
     return lin
 
 
@@ -690,11 +692,6 @@ def _per_step(system: System, values: Any, n: int, what: str) -> np.ndarray:
     return out
 
 
-#: per System, the scratch of its last linearization (re-used: allocating it costs as
-#: much as the compiled kernel); the results never alias it
-_SCRATCH: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-
-
 class _Views:
     """Named numpy views of one Data and DynData, each made once (a view costs ~3 us)."""
 
@@ -711,15 +708,13 @@ class _Views:
 
 
 def _scratch(system: System) -> tuple[Any, Any, Linearized, LinWork]:
-    """(Data, DynData, out, work) of :func:`linearize` for ``system``, made once; the
-    Data and DynData carry ``views`` (:class:`_Views`)."""
-    got = _SCRATCH.get(system)
-    if got is None:
-        data, dyn = make_data(system, system.nq), make_dyn_data(system, system.nq)
-        data.views = dyn.views = _Views(data, dyn)  # type: ignore[attr-defined]
-        got = (data, dyn, *_buffers(system))
-        _SCRATCH[system] = got
-    return got
+    """(Data, DynData, out, work) of one :func:`linearize` call, kept per system by
+    :data:`~openimp.workspace.WORKSPACES` (allocating them costs as much as the
+    compiled kernel; the results never alias them); the Data and DynData carry
+    ``views`` (:class:`_Views`)."""
+    data, dyn = make_data(system, system.nq), make_dyn_data(system, system.nq)
+    data.views = dyn.views = _Views(data, dyn)  # type: ignore[attr-defined]
+    return (data, dyn, *_buffers(system))
 
 
 def _buffers(system: System) -> tuple[Linearized, LinWork]:
@@ -1095,7 +1090,7 @@ def mode_motion(modes: Modes, mode: int = 0, amplitude: float = 0.1, steps: int 
     for i in lin.sgc:
         name = lin.coords[i]
         drivers[name] = np.full(theta.size, lin.q[system.var_index(name)])
-    tr = sweep(system, drivers, start=lin.q)
+    tr = sweep(system, drivers, q=lin.q)
     w = modes.damped[mode] if modes.kind[mode] == "oscillatory" else 2 * math.pi
     tr.time = theta[:tr.nsteps] / w
     return tr

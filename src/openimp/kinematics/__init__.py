@@ -16,7 +16,8 @@ every later analysis call instead of re-implementing them:
 * :mod:`~openimp.kinematics.sweep`: sweeps through driver values or motions
   of time; :mod:`~openimp.kinematics.batch`: many variants in parallel;
   :mod:`~openimp.kinematics.track`: postures and rates of bodies and points
-  along a result.
+  along a result; :mod:`~openimp.kinematics.inputs`: the inputs every analysis
+  reads the same way (``q``, ``state=``, ``specified=``, rates).
 """
 
 from openimp.kinematics.batch import BatchResult, sweep_batch

@@ -17,9 +17,10 @@ from typing import Any, NamedTuple, Protocol
 import numpy as np
 
 from openimp._jit import njit
-from openimp.errors import InputError
+from openimp.errors import InputError, renamed
 from openimp.kinematics import singular as sing
 from openimp.kinematics.elimination import derivatives
+from openimp.kinematics.inputs import names_of, start_state
 from openimp.kinematics.posture import (
     BRANCH,
     DIVERGED,
@@ -34,7 +35,7 @@ from openimp.kinematics.rates import velocity, velocity_product
 from openimp.kinematics.track import tracker
 from openimp.limits import check_solver_options
 from openimp.results import DriverSwitch, Singularity, Trajectory
-from openimp.system import System, data_views, make_data, make_state
+from openimp.system import State, System, data_views, make_data, make_state
 
 #: the former name of the trajectory of a sweep
 SweepResult = Trajectory
@@ -413,23 +414,6 @@ def _rate_values(
     return out
 
 
-def start_posture(system: System, start: Any) -> np.ndarray:
-    """The starting joint variables (internal units): the modeling posture or ``start``
-    (model units, all nq variables)."""
-    if start is None:
-        return system.q0.copy()
-    try:
-        q = np.asarray(start, dtype=float).reshape(-1)
-    except (TypeError, ValueError):
-        raise InputError(f"start must be {system.nq} numbers (all joint variables)") from None
-    if q.shape != (system.nq,) or not np.all(np.isfinite(q)):
-        raise InputError(
-            f"start must hold {system.nq} finite numbers, one per joint variable "
-            f"({', '.join(system.var_names)}); got {q.size}"
-        )
-    return system.to_internal(q).copy()
-
-
 def failure_message(
     system: System, names: list[str], dvals: np.ndarray, k: int, status: int
 ) -> str:
@@ -516,12 +500,15 @@ def sweep(
     maxit: int = 25,
     maxhalve: int = 12,
     hold_free: bool = False,
-    start: np.ndarray | None = None,
+    q: Any = None,
+    state: State | None = None,
+    specified: Any = (),
     steps: int | None = None,
     branch: str = "smooth",
     at_limit: str = "stop",
-    progress: Callable[[int, int], None] | None = None,
+    progress: Callable[[float, float], None] | None = None,
     kernel: StepKernel | None = None,
+    **deprecated_names: Any,
 ) -> Trajectory:
     """Move ``system`` through the driver values and solve every posture.
 
@@ -552,15 +539,32 @@ def sweep(
     and goes on for the remaining steps (IMP's automatic driver switching,
     reported in :attr:`Trajectory.switches`).
 
-    ``progress(done, total)`` is called as the steps are solved (in chunks of
-    :data:`CHUNK`); Ctrl-C then ends the sweep with every step solved before
-    (:attr:`Trajectory.interrupted`).
+    ``q``: the start posture, model units (the nq joint variables, or a
+    mapping of joint variables to values; default the modeling posture), or
+    ``state``: a :class:`~openimp.system.State` (internal units) to start
+    from.  ``specified``: joint variables (names or ``"joint.var"``) held at
+    their start values besides the drivers.  ``start`` is the deprecated name
+    of ``q``.
+
+    ``progress(done, total)`` (steps solved, steps) is called as the steps
+    are solved (in chunks of :data:`CHUNK`); Ctrl-C then ends the sweep with
+    every step solved before (:attr:`Trajectory.interrupted`).
 
     ``kernel`` (:class:`StepKernel`), for analyses built on the sweep: solves
     the steps in place of :func:`sweep_steps` and does its own work at each
     (rates are then always computed: zero where none are given).
     """
+    if deprecated_names:  # start=, the old name of q
+        old = renamed("sweep", {"q": q, **deprecated_names} if q is not None
+                      else deprecated_names, {"start": "q"})
+        if old.keys() - {"q"}:
+            raise InputError(f"sweep: unknown option(s) {', '.join(sorted(old.keys() - {'q'}))}")
+        q = old["q"]
+    S = make_state(system, start_state(system, q, state, "sweep").q)
     check_solver_options(tol, pivot_tol, maxit, maxhalve)
+    if progress is not None and not callable(progress):
+        raise InputError(f"sweep: progress must be a callable progress(done, total), got "
+                         f"{progress!r}")
     if branch not in ("smooth", "other"):
         raise InputError(f"branch must be 'smooth' or 'other', got {branch!r}")
     if at_limit not in ("stop", "switch"):
@@ -570,12 +574,13 @@ def sweep(
     nq = system.nq
     nsteps = dvals.shape[0]
     want = inp.with_rates or kernel is not None
-    S = make_state(system, start_posture(system, start))
     S.sgc[dcols] = True
+    S.sgc[[system.var_index(k) for k in names_of(specified, "sweep")]] = True
     # one scratch for the driver check and the sweep
     data = make_data(system, len(dcols))
     # the same drivers from the same start were checked before: a study's repeated sweeps
-    key = ("drivers", dcols.tobytes(), S.q.tobytes(), float(pivot_tol), bool(hold_free))
+    key = ("drivers", dcols.tobytes(), S.sgc.tobytes(), S.q.tobytes(), float(pivot_tol),
+           bool(hold_free))
     checked = system.memo.get(key)
     if checked is None:
         checked = system.memo[key] = check_drivers(system, S, dcols, pivot_tol, hold_free,
@@ -678,7 +683,7 @@ class _Run:
                            part)
 
     def solve(self, branch: str, at_limit: str,
-              progress: Callable[[int, int], None] | None) -> tuple[int, int]:
+              progress: Callable[[float, float], None] | None) -> tuple[int, int]:
         """Every step, with the user's choices; (steps solved, status).  With
         ``progress`` the steps are solved in chunks of :data:`CHUNK`, told after each;
         Ctrl-C between chunks ends the sweep with what was solved."""
@@ -698,7 +703,7 @@ class _Run:
                 if status == OK and k < n:  # a chunk solved: on with the next
                     k0, resume = k, True
                     if progress is not None:
-                        progress(k, n)
+                        progress(float(k), float(n))
                     continue
                 if k < n and at_limit == "switch" and self._switch(k):
                     k0, resume = k, False
@@ -707,7 +712,7 @@ class _Run:
                     self.limits.append((k, self.S.q.copy(), "the sweep stops there"))
                 k0 = k
                 if progress is not None:
-                    progress(k, n)
+                    progress(float(k), float(n))
                 return k, status
         except KeyboardInterrupt:
             self.interrupted = True

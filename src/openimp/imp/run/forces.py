@@ -134,12 +134,12 @@ def compute(prep: Prepared, sol: Solution, notes: list[str]) -> ForceResults:
     resolver (:attr:`openimp.imp.dyndata.ValueLaws.resolve_at`).  Raises
     :class:`InputError` when a load law fails.
     """
-    from openimp.dynamics import forces as _forces
+    from openimp.dynamics import forces_of
 
     st = prep.spec.state
     itol = st.tolerance("INDETERM")[0]
     ptol = st.tolerance("SYSTEM")[0] if "SYSTEM" in st.zero else 1e-10
-    f = _forces(sol.traj, indeterminate=itol, pivot_tol=ptol)
+    f = forces_of(sol.traj, indeterminate=itol, pivot_tol=ptol)
     out = ForceResults(drive=dict(f.drive))
     model = prep.built.model
     for name in model.joints:

@@ -206,13 +206,13 @@ def solve(prep: Prepared, times: np.ndarray, start: np.ndarray | None,
             sl = slice(k, k + m)
             told = None
             if progress is not None and not lagged:
-                def told(done: int, total: int, k0: int = k) -> None:
-                    progress(k0 + done, n)
+                def told(done: float, total: float, k0: int = k) -> None:
+                    progress(k0 + int(done), n)
             try:
                 res = sweep(system, {c: motions.p[sl, j] for j, c in enumerate(names)},
                             rates={c: motions.v[sl, j] for j, c in enumerate(names)},
                             accels={c: motions.a[sl, j] for j, c in enumerate(names)},
-                            start=cur, progress=told, **opts)
+                            q=cur, progress=told, **opts)
             except InputError as exc:
                 message = _stop_message(prep, times, k, motions, f"{exc}")
                 break
@@ -247,7 +247,7 @@ def _start_values(system: Any, cur: np.ndarray | None, drv_cols: list[int], name
     q0 = system.modeling_q if cur is None else cur
     try:
         pre = sweep(system, {c: [q0[drv_cols[j]]] for j, c in enumerate(names)},
-                    rates={c: [0.0] for c in names}, start=cur, **opts)
+                    rates={c: [0.0] for c in names}, q=cur, **opts)
     except InputError:
         return None
     return Solution(pre, times[:1])
@@ -288,7 +288,7 @@ def _structure(prep: Prepared, times: np.ndarray, cur: np.ndarray | None) -> Sol
     tol = st.tolerance("POSITION")[0] if "POSITION" in st.zero else 1e-10
     ptol = st.tolerance("SYSTEM")[0] if "SYSTEM" in st.zero else 1e-10
     res = sweep(prep.system, {}, rates={}, steps=len(times), tol=tol, pivot_tol=ptol,
-                            hold_free=True, start=cur)
+                            hold_free=True, q=cur)
     return Solution(res, times[:res.nsteps], res.message)
 
 

@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from openimp.dynamics.equilibrium import MAX_STEPS, _turning_points, equilibria
+from openimp.dynamics.equilibrium import MAX_ITER, equilibria, turning_points
 from openimp.errors import InputError
 from openimp.imp.run.kinematic import Motions, reads_model
 from openimp.imp.run.prepare import Prepared
@@ -56,7 +56,7 @@ def solve(prep: Prepared, times: np.ndarray, start: np.ndarray | None,
         n = motions.halt.step
     opts: dict[str, Any] = {"forces": False}
     tol, cap = st.tolerance("EQUILIB")
-    opts["max_steps"] = int(cap or MAX_STEPS)
+    opts["max_iter"] = int(cap or MAX_ITER)
     if "EQUILIB" in st.zero:
         opts["step_tol"] = float(tol)
     if "SYSTEM" in st.zero:
@@ -70,8 +70,10 @@ def solve(prep: Prepared, times: np.ndarray, start: np.ndarray | None,
         sol = Solution(empty, times[:0], motions.halt.text if motions.halt else "")
         return sol
     try:
+        told = None if progress is None else (
+            lambda done, total: progress(int(done), int(total)))  # steps, whole numbers
         res = equilibria(system, path or None, times=np.asarray(times[:n], float),
-                         q=start, progress=progress, **opts)
+                         q=start, progress=told, **opts)
     except InputError as exc:
         return Solution(empty, times[:0],
                         _in_imp_terms(f"the run stopped at step 0: {exc}", prep, drivers))
@@ -90,7 +92,7 @@ def solve(prep: Prepared, times: np.ndarray, start: np.ndarray | None,
             if m not in told:  # once, at the first step that says it
                 told.add(m)
                 notes.append(f"step {k}: {m}" if n > 1 else m)
-    for m in _turning_points(res, *_imp_names(prep, drivers)):
+    for m in turning_points(res, *_imp_names(prep, drivers)):
         notes.append(f"Turning point: {m}")
     if motions.halt is not None and not sol.message:
         sol.stop = motions.halt.text

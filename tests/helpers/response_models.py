@@ -1,6 +1,6 @@
 """Models and plain-numpy / scipy references for tests/test_response.py (book ch 14).
 
-Every builder returns a :class:`test_forces.Spec` (the Model and, beside it, the data
+Every builder returns a :class:`helpers.models.Spec` (the Model and, beside it, the data
 the references need).  The references are written from the geometry the builder gave
 the model, never from openimp:
 
@@ -32,7 +32,7 @@ import numpy as np
 from scipy.special import ellipk
 
 import openimp
-from test_forces import Spec
+from helpers.models import Spec
 
 G = 9.81
 DEG = math.pi / 180

@@ -1,6 +1,6 @@
 """Models and plain-numpy references for tests/test_statics.py (book ch 12).
 
-Every builder returns a :class:`test_forces.Spec` (the Model plus the data the
+Every builder returns a :class:`helpers.models.Spec` (the Model plus the data the
 references need) and the constants of its closed-form potential.  The references
 are written from the geometry the builder gave the model, never from openimp:
 
@@ -13,7 +13,7 @@ are written from the geometry the builder gave the model, never from openimp:
 * :func:`vehicle`: a body on a horizontal slider with a vertical sprung slider;
 * :func:`truss`: a von Mises truss (two springs to an apex on a vertical slider).
 
-:class:`StaticRef` extends the Newton-Euler balance of tests/test_forces.py with
+:class:`StaticRef` extends the Newton-Euler balance of :class:`helpers.mechanics.Ref` with
 forces given by a load law of t.
 """
 
@@ -24,7 +24,8 @@ import math
 import numpy as np
 
 import openimp
-from test_forces import Ref, Spec, slider_crank_joints
+from helpers.mechanics import Ref
+from helpers.models import Spec, slider_crank_joints
 
 G = 9.81
 DEG = math.pi / 180
@@ -32,7 +33,7 @@ DEG = math.pi / 180
 
 # ----------------------------------------------------------------------------- balance
 class StaticRef(Ref):
-    """:class:`test_forces.Ref` with forces whose magnitude is a law of the time:
+    """:class:`helpers.mechanics.Ref` with forces whose magnitude is a law of the time:
     ``law_forces`` = [(point, f(t) -> magnitude, fixed global direction (3,))]."""
 
     def __init__(self, spec: Spec, tr: openimp.Trajectory, law_forces=()) -> None:
