@@ -100,7 +100,7 @@ def test_no_import_cycles():
 LAYERS = [
     ("openimp.errors", "openimp.results", "openimp._jit", "openimp.limits", "openimp.files",
      "openimp.workspace"),
-    ("openimp.spatial", "openimp.mat4", "openimp.massprops"),
+    ("openimp.spatial", "openimp.mat4", "openimp.linalg", "openimp.massprops"),
     ("openimp.joints",),
     ("openimp.model",),
     ("openimp.topology",),

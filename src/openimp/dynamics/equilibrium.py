@@ -43,33 +43,12 @@ import numpy as np
 
 from openimp.dynamics.laws import law_values_at
 from openimp.dynamics.statics import (
-    O_CLOSE,
-    O_FTOL,
-    O_LIMIT,
-    O_MAY_ESCAPE,
-    O_MAY_STEP,
-    O_NEUTRAL,
-    O_NUMERIC_K,
-    O_PTOL,
-    O_RTOL,
-    O_STABLE,
-    O_STEPTOL,
-    S_CLOSED,
-    S_EVALS,
-    S_FMAX,
-    S_HAVE,
-    S_ITER,
-    S_KEVALS,
-    S_KIND,
-    S_NF,
-    S_PE,
-    S_QUALITY,
-    S_RANK,
-    S_SCALE,
-    S_SEEN,
-    S_STEPMAX,
     STEPPED,
+    StepOptions,
     close_posture,
+    make_history,
+    make_search_buffers,
+    make_search_state,
     search_loop,
     search_step,
     static_point,
@@ -191,17 +170,10 @@ class _Scratch:
         self.z_G = self.dyn.view("Gf")
         self.z_law = self.dyn.view("law")
         self.E = self.data.view("E")
-        f = np.zeros
         vs = system.var_scale.astype(float)
         gs = system.Y.gscale.copy()
-        self.bufs = (f(nq), f((nq, nq)), f(nq, np.int64), f(nq), f((nq, nq)),
-                     f(nq, np.int64), f((nq, nq, nq)), f((nb, nq, nq, 6)), f((nq, nq)),
-                     f(nq), vs, gs, f(nq, np.int64), f(nq), f((nq, nq)), f((nq, nq + 1)),
-                     f(nq), f(nq), f((nq, nq)), f((nq, nq)), f(nq), f(nq),
-                     f(nq, np.bool_), f(nq, np.bool_), f(nq, np.int64), f(nq, np.int64),
-                     f(nq, np.bool_))
-        self.F, self.K, self.cols = self.bufs[0], self.bufs[1], self.bufs[2]
-        self.work = (f(nq), f(nq), f(nq), f(nq), f((nb, 6)), f(nq))
+        self.bufs = make_search_buffers(nq, nb, vs, gs)
+        self.F, self.K, self.cols = self.bufs.now
         self.loaded = _loaded(system)
 
 
@@ -219,18 +191,16 @@ class _Search:
         self.data, self.dyn, self.E = sc.data, sc.dyn, sc.E
         self.t = 0.0
         self.iterations = 0
-        self.opts = np.zeros(11)
-        self.state = np.zeros(14)
-        o = self.opts
-        o[O_PTOL] = opts.pivot_tol
-        o[O_RTOL] = opts.force_rtol
-        o[O_FTOL] = -1.0 if opts.force_tol is None else opts.force_tol
-        o[O_STEPTOL] = -1.0 if opts.step_tol is None else opts.step_tol
-        o[O_LIMIT] = opts.step_limit
-        o[O_NEUTRAL] = opts.neutral_tol
-        o[O_STABLE] = float(opts.seek_stable)
-        o[O_NUMERIC_K] = float(bool(system.laws))
-        o[O_CLOSE] = CLOSE_TOL
+        self.opts = StepOptions(
+            pivot_tol=float(opts.pivot_tol), rtol=float(opts.force_rtol),
+            force_tol=-1.0 if opts.force_tol is None else float(opts.force_tol),
+            step_tol=-1.0 if opts.step_tol is None else float(opts.step_tol),
+            limit=float(opts.step_limit), neutral=float(opts.neutral_tol),
+            stable=bool(opts.seek_stable), numeric_k=bool(system.laws), close_tol=CLOSE_TOL)
+        # the search's record (statics.SEARCH_STATE): the kernels take the (1,) array,
+        # Python reads and writes its one record by field
+        self.record = make_search_state()
+        self.state = self.record[0]
 
     def release(self) -> None:
         """Give the scratch back to the system's pool."""
@@ -238,7 +208,7 @@ class _Search:
 
     @property
     def evaluations(self) -> int:
-        return int(self.state[S_EVALS])
+        return int(self.state.evals)
 
     # one posture -------------------------------------------------------------
     def _laws(self, S: State) -> None:
@@ -251,14 +221,14 @@ class _Search:
         there, without the stiffness, counted: (nf, rank, potential, load scale)."""
         sy, sc = self.system, self.sc
         self._laws(S)
-        self.state[S_EVALS] += 1
+        self.state.evals += 1
         return static_point(sy.KP, sc.data.DP, sy.YP, sc.dyn.ZP, S, sy.gen, self.o.pivot_tol,
-                            False, sc.F, sc.K, sc.bufs[6], sc.bufs[7], sc.work)
+                            False, sc.bufs.now, sc.bufs.lin, sc.bufs.work)
 
     def evaluate(self, S: State) -> tuple[np.ndarray, np.ndarray]:
         """(cols, F) at the posture S.q (assembled or not), without the stiffness."""
-        nf = self._point(S)[0]
-        self.state[S_HAVE] = 0.0
+        nf, _, _, _ = self._point(S)
+        self.state.have = False
         return self.sc.z_cols[:nf].copy(), self.sc.F[:nf].copy()
 
     def _numeric_k(self, S: State) -> None:
@@ -275,8 +245,9 @@ class _Search:
             Fs = []
             for h in (H_LAW, -H_LAW):
                 S.q[:] = q0 + h * G[:, j]
-                if close_posture(sy.KP, sc.data.DP, S, sy.gen, cols, CLOSE_TOL,
-                                 self.o.pivot_tol, 30, sc.bufs[26])[0] != 0:
+                status, _, _ = close_posture(sy.KP, sc.data.DP, S, sy.gen, cols, CLOSE_TOL,
+                                             self.o.pivot_tol, 30, sc.bufs.keep)
+                if status != 0:
                     S.q[:] = q0
                     raise AnalysisError("equilibrium: the loops do not close within "
                                         f"{H_LAW:g} of the posture along "
@@ -290,23 +261,23 @@ class _Search:
             K[:, j] = -(Fs[0] - Fs[1]) / (2 * H_LAW)
         S.q[:] = q0
         nf, rank, pe, scale = self._point(S)
-        self.state[S_KEVALS] += 1
+        self.state.kevals += 1
         sc.cols[:nf] = cols
         sc.K[:nf, :nf] = K
         st = self.state
-        st[S_NF], st[S_RANK], st[S_PE], st[S_SCALE] = nf, rank, pe, scale
-        st[S_HAVE] = 1.0
+        st.nf, st.rank, st.pe, st.scale = nf, rank, pe, scale
+        st.have = True
 
     def close(self, S: State, cols: np.ndarray) -> bool:
         """Close the loops holding ``cols`` (and the SGCs); False when they do not close."""
         sc = self.sc
         status, self.iterations, q = close_posture(self.system.KP, sc.data.DP, S,
                                                    self.system.gen, cols, CLOSE_TOL,
-                                                   self.o.pivot_tol, 30, sc.bufs[26])
-        self.state[S_HAVE] = 0.0
+                                                   self.o.pivot_tol, 30, sc.bufs.keep)
+        self.state.have = False
         if status == 0:
-            self.state[S_QUALITY], self.state[S_CLOSED] = q, 1.0
-            self.state[S_ITER] = self.iterations
+            self.state.quality, self.state.closed = q, True
+            self.state.iter = self.iterations
         return status == 0
 
     # the search ---------------------------------------------------------------
@@ -314,50 +285,49 @@ class _Search:
         """Search from the assembled posture S (SGCs in S.sgc held); S.q ends at the last
         posture reached.  Returns the raw outcome (internal units)."""
         sy, sc, o = self.system, self.sc, self.o
-        st, opts = self.state, self.opts
-        st[S_SEEN] = 0.0
+        st, opts, rec = self.state, self.opts, self.record
+        st.seen = 0.0
         history: list[tuple[str, float, float]] = []
         counts = {"neutral": 0, "escape": 0}
         steps = 0
         if not sy.laws:  # the whole search in one compiled call
-            hist = np.zeros((o.max_iter, 3))
-            cnt = np.zeros(3, np.int64)
-            code = search_loop(sy.KP, sc.data.DP, sy.YP, sc.dyn.ZP, S, sy.gen, opts, st,
-                               sc.bufs, sc.work, o.max_iter, hist, cnt)
-            steps = int(cnt[0])
-            counts["escape"], counts["neutral"] = int(cnt[1]), int(cnt[2])
-            history = [(str(StepKind(int(h[0]))), float(h[1]), float(h[2]))
+            hist = make_history(o.max_iter)
+            code = search_loop(sy.KP, sc.data.DP, sy.YP, sc.dyn.ZP, S, sy.gen, opts, rec,
+                               sc.bufs, hist)
+            steps = int(st.steps)
+            counts["escape"], counts["neutral"] = int(st.escapes), int(st.neutral_steps)
+            history = [(str(StepKind(int(h.kind))), float(h.fmax), float(h.stepmax))
                        for h in hist[:steps]]
         else:  # load laws: their values and the stiffness refreshed at every step
             while True:
                 self._numeric_k(S)
-                opts[O_MAY_STEP] = float(steps < o.max_iter)
-                opts[O_MAY_ESCAPE] = float(counts["escape"] < 4 and steps < o.max_iter)
-                code = search_step(sy.KP, sc.data.DP, sy.YP, sc.dyn.ZP, S, sy.gen, opts, st,
-                                   sc.bufs, sc.work)
+                st.may_step = steps < o.max_iter
+                st.may_escape = counts["escape"] < 4 and steps < o.max_iter
+                code = search_step(sy.KP, sc.data.DP, sy.YP, sc.dyn.ZP, S, sy.gen, opts, rec,
+                                   sc.bufs)
                 if code != STEPPED:
                     break
                 steps += 1
-                kind = str(StepKind(int(st[S_KIND])))
+                kind = str(StepKind(int(st.kind)))
                 if kind in counts:
                     counts[kind] += 1
-                history.append((kind, float(st[S_FMAX]), float(st[S_STEPMAX])))
+                history.append((kind, float(st.fmax), float(st.stepmax)))
         status = str(SearchStatus(code))
-        if st[S_HAVE] == 0.0:  # a failed step left a trial's evaluation in the scratch
+        if not st.have:  # a failed step left a trial's evaluation in the scratch
             if sy.laws:
                 self._numeric_k(S)
             else:
-                opts[O_MAY_STEP] = opts[O_MAY_ESCAPE] = 0.0
-                search_step(sy.KP, sc.data.DP, sy.YP, sc.dyn.ZP, S, sy.gen, opts, st,
-                            sc.bufs, sc.work)
-        nf = int(st[S_NF])
+                st.may_step = st.may_escape = False
+                search_step(sy.KP, sc.data.DP, sy.YP, sc.dyn.ZP, S, sy.gen, opts, rec,
+                            sc.bufs)
+        nf = int(st.nf)
         cols = sc.cols[:nf].copy()
-        scale = max(float(st[S_SEEN]), float(st[S_SCALE]))
+        scale = max(float(st.seen), float(st.scale))
         message = ("the loops cannot be closed (or the loads do work against every step) "
                    "near this posture along the search direction; the search stopped at "
                    "the last closed posture") if status == "failed" else ""
         return dict(cols=cols, F=sc.F[:nf].copy(), K=sc.K[:nf, :nf].copy(),
-                    pe=float(st[S_PE]), scale=scale, rank=int(st[S_RANK]), status=status,
+                    pe=float(st.pe), scale=scale, rank=int(st.rank), status=status,
                     steps=steps, history=history, neutral_steps=counts["neutral"],
                     escapes=counts["escape"], message=message,
                     ftol=self.tolerance(cols, scale))
@@ -366,7 +336,7 @@ class _Search:
         """Force tolerance per coordinate (internal units)."""
         o = self.o
         if o.force_tol is not None:
-            return o.force_tol / self.sc.bufs[11][cols]
+            return o.force_tol / self.sc.bufs.gs[cols]
         return np.full(cols.size, o.force_rtol * max(scale, 1e-300))
 
 
@@ -437,7 +407,8 @@ def _assemble(search: _Search, S: State) -> None:
 
     sy = search.system
     st = search.state
-    st[S_EVALS] = st[S_KEVALS] = st[S_CLOSED] = 0.0
+    st.evals = st.kevals = 0
+    st.closed = False
     cols, _ = search.evaluate(S)
     if float(np.abs(search.E).max(initial=0.0)) <= CLOSE_TOL:
         return
@@ -460,8 +431,8 @@ def _result(system: System, search: _Search, S: State, raw: dict[str, Any], want
     """The :class:`~openimp.results.Equilibrium` of a finished search (model units)."""
     cols = raw["cols"]
     sc = search.sc
-    vs = sc.bufs[10][cols]
-    gs = sc.bufs[11][cols]
+    vs = sc.bufs.vs[cols]
+    gs = sc.bufs.gs[cols]
     Ls = system.length_scale
     names = [system.var_names[c] for c in cols]
     spec = S.sgc[cols].copy()
@@ -546,7 +517,7 @@ def _result(system: System, search: _Search, S: State, raw: dict[str, Any], want
     holding = {n: -float(F[i]) for i, n in enumerate(names) if spec[i]}
     q_int = S.q.copy()
     quality = _quality(search, S)
-    iterations = int(search.state[S_ITER]) if search.state[S_CLOSED] else 0
+    iterations = int(search.state.iter) if search.state.closed else 0
     fgc = np.zeros((1, system.nq), bool)
     fgc[0, cols[free]] = True
     tr = Trajectory(system, q_int[None, :].copy(), np.array([quality]),
@@ -558,7 +529,7 @@ def _result(system: System, search: _Search, S: State, raw: dict[str, Any], want
     tr.set_rates(np.zeros((1, system.nq)), np.zeros((1, system.nq)), np.zeros(1))
     tr.time = np.array([S.time])
     eq = Equilibrium(
-        system=system, q=q_int * sc.bufs[10], coords=names, specified=spec,
+        system=system, q=q_int * sc.bufs.vs, coords=names, specified=spec,
         converged=converged, status=status, steps=raw["steps"],
         evaluations=search.evaluations, residual=F, force_tol=ftol, stiffness=K,
         eigenvalues=lam, eigenvectors=vec, stability=stability, holding=holding,
@@ -615,8 +586,8 @@ def _quality(search: _Search, S: State) -> float:
     (6.5.3): the last closure's, else a fresh elimination."""
     from openimp.kinematics.posture import eliminate_at
 
-    if search.state[S_CLOSED]:
-        return float(search.state[S_QUALITY])
+    if search.state.closed:
+        return float(search.state.quality)
     return float(eliminate_at(search.system, search.data, S, search.o.pivot_tol)[1])
 
 

@@ -216,8 +216,8 @@ class Run:
         nF = int(w.nF[0])
         nf = nF + w.scols.size
         lin = self.W.lin
-        D, K = lin[stp.LIN_D], lin[stp.LIN_K]
-        Gl, qpl, qdpl = lin[stp.LIN_GL], lin[stp.LIN_QPL], lin[stp.LIN_QDPL]
+        D, K = lin.D, lin.K
+        Gl, qpl, qdpl = lin.Gl, lin.qpl, lin.qdpl
         cols = w.lcols[:nf]
         # the directions of the coordinates' motion and of their rates' (the side of a
         # law's kink the step goes to)

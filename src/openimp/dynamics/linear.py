@@ -39,6 +39,8 @@ posture with the set-point elimination kept:
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from openimp._jit import njit
@@ -61,6 +63,78 @@ from openimp.system import (
 
 #: coordinate step of the differenced motion terms (internal units: radians, L)
 H_MOTION = 1e-3
+
+
+class LinOptions(NamedTuple):
+    """Options of :func:`linearize_kernel` (internal units)."""
+
+    pivot_tol: float  #: pivot tolerance of the elimination (ch 6)
+    close_tol: float  #: closure tolerance of the postures differenced for the motion terms
+    h: float  #: coordinate step of those differences (:data:`H_MOTION`)
+    motion: bool  #: differentiate the motion terms (the set point moves)
+    keep: bool  #: close the differenced postures even at rest and keep them (load laws)
+
+
+class Linearized(NamedTuple):
+    """What :func:`linearize_kernel` writes, for nq joint variables, nb bodies, nlaw laws;
+    the leading (nf, nf) blocks of M, D, K and nf entries of F are used."""
+
+    M: np.ndarray  #: (nq, nq) mass matrix (11.7)
+    D: np.ndarray  #: (nq, nq) damping (11.8)
+    K: np.ndarray  #: (nq, nq) stiffness (11.9)
+    F: np.ndarray  #: (nq,) unbalanced load at the set point (11.10)
+    P2: np.ndarray  #: (nq, nq, nq) phi''_{a,jk} (:func:`second_derivatives`)
+    A2: np.ndarray  #: (nb, nq, nq, 6) A_{b,jk} (:func:`second_derivatives`)
+    Gl: np.ndarray  #: (nq, nlaw) generalized direction of every law (dQ/dlaw)
+    qpl: np.ndarray  #: (nq, 4, nq) postures closed at psi* + (-2h, -h, h, 2h) e_l
+    qdpl: np.ndarray  #: (nq, 4, nq) joint rates phi' psi'* there (motion terms only)
+
+
+class LinWork(NamedTuple):
+    """Scratch of :func:`linearize_kernel` (nq joint variables, nb bodies)."""
+
+    u: np.ndarray  #: (nq,) generalized rates
+    a: np.ndarray  #: (nq,) generalized accelerations
+    zero: np.ndarray  #: (nq,) zero rates
+    cv: np.ndarray  #: (nq,) c
+    Qv: np.ndarray  #: (nq,) Q
+    cp: np.ndarray  #: (nq,) c at perturbed rates
+    Qp: np.ndarray  #: (nq,) Q at perturbed rates
+    r: np.ndarray  #: (nq,) a residual
+    dF: np.ndarray  #: (nb, 6) body wrench rates
+    dfq: np.ndarray  #: (nq,) joint load rates
+    q0: np.ndarray  #: (nq,) the set point's joint variables
+    sgc0: np.ndarray  #: (nq,) bool, the set point's SGCs
+    Mw: np.ndarray  #: (nq, nq) a mass matrix
+
+
+class LinSteps(NamedTuple):
+    """The set points of :func:`linearize_steps` and what it writes per step."""
+
+    q: np.ndarray  #: (steps, nq) assembled postures, internal units
+    psid: np.ndarray  #: (steps, nq) rates of the generalized coordinates
+    psidd: np.ndarray  #: (steps, nq) their accelerations
+    t: np.ndarray  #: (steps,) times
+    mdk: np.ndarray  #: (steps, 3, nq, nq) out: M, D, K (leading (nf, nf))
+    nf: np.ndarray  #: (steps,) int out: coordinate count, -1 where a closure failed
+    cols: np.ndarray  #: (steps, nq) int out: the generalized coordinates
+    res: np.ndarray  #: (steps,) out: the largest loop residual of the posture
+
+
+def make_linearized(nq: int, nb: int, nlaw: int) -> Linearized:
+    """Zeroed :class:`Linearized` for nq joint variables, nb bodies, nlaw load laws."""
+    f = np.zeros
+    return Linearized(M=f((nq, nq)), D=f((nq, nq)), K=f((nq, nq)), F=f(nq),
+                      P2=f((nq, nq, nq)), A2=f((nb, nq, nq, 6)), Gl=f((nq, nlaw)),
+                      qpl=f((nq, 4, nq)), qdpl=f((nq, 4, nq)))
+
+
+def make_lin_work(nq: int, nb: int) -> LinWork:
+    """Zeroed :class:`LinWork` for nq joint variables and nb bodies."""
+    f = np.zeros
+    return LinWork(u=f(nq), a=f(nq), zero=f(nq), cv=f(nq), Qv=f(nq), cp=f(nq), Qp=f(nq),
+                   r=f(nq), dF=f((nb, 6)), dfq=f(nq), q0=f(nq), sgc0=np.zeros(nq, np.bool_),
+                   Mw=f((nq, nq)))
 
 
 @njit(nrt=False, inline="always")
@@ -243,21 +317,23 @@ def load_rates(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, dF: np.ndar
 
 @njit(nrt=False)
 def load_stiffness(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
-                   gen: np.ndarray | None, rank: int, nf: int, P2: np.ndarray,
-                   A2: np.ndarray, cp: np.ndarray, Qp: np.ndarray, dF: np.ndarray,
-                   dfq: np.ndarray, K: np.ndarray) -> None:
+                   gen: np.ndarray | None, rank: int, nf: int, K: np.ndarray,
+                   out: Linearized, work: LinWork) -> None:
     """K (11.9, 12.2) of the loads at rest into K[:nf, :nf], closed form: -dQ/dpsi =
     -(sum_b A_bil . Fext_b + W_bi . dFext_b/dpsi_l + sum_h phi''_hil fq_h + phi'_hi
-    dfq_h/dpsi_l), at the eliminated posture (:func:`_setup` done).  P2, A2 receive
-    the second derivatives (:func:`second_derivatives`); cp, Qp (nq,), dF (nb, 6), dfq
-    (nq,) scratch.  Leaves z.Fext, z.fq at rest and S.qd at the last unit rate."""
+    dfq_h/dpsi_l), at the eliminated posture (:func:`set_point` done).  out.P2, out.A2
+    receive the second derivatives (:func:`second_derivatives`; nothing else of ``out``
+    is written); work.cp, work.Qp, work.dF, work.dfq scratch.  Leaves z.Fext, z.fq at
+    rest and S.qd at the last unit rate."""
+    P2, A2 = out.P2, out.A2
+    cp, Qp, dF, dfq = work.cp, work.Qp, work.dF, work.dfq
     z = dyn_data_views(ZP)
     nq = S.q.shape[0]
     nb = A2.shape[0]
     second_derivatives(KP, DP, ZP, S, gen, rank, nf, P2, A2, cp[:nf])
     for m in range(nf):
         cp[m] = 0.0
-    _rate_forces(KP, DP, YP, ZP, S, gen, rank, nf, cp[:nf], Qp, dfq)  # Fext, fq at rest
+    forces_at_rates(KP, DP, YP, ZP, S, gen, rank, nf, cp[:nf], Qp, dfq)  # Fext, fq at rest
     G = z.Gf
     W = z.W
     for l in range(nf):
@@ -277,21 +353,29 @@ def load_stiffness(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
 
 
 @njit(nrt=False)
-def _setup(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | None,
-           ptol: float) -> tuple[int, int]:
-    """:func:`~openimp.dynamics.eom.generalized` and the global pseudo-inertias at S.q (one
-    compiled call: the stages are inlined once, not at every caller)."""
+def set_point(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | None,
+              ptol: float) -> tuple[int, int]:
+    """The set-point stage of the linearization and the statics at the assembled posture
+    S.q: the elimination with the SGCs S.sgc held (:func:`~openimp.dynamics.eom.
+    generalized`: the generalized coordinates z.cols, their phi' z.Gf (7.14), the body
+    operators z.W (7.20)) and the global pseudo-inertias z.Gb (9.7).  ``ptol`` the pivot
+    tolerance.  Returns (rank of the loop Jacobian, nf the number of generalized
+    coordinates).  One compiled call: the stages are inlined once here, not at every
+    caller."""
     rank, nf = generalized(KP, DP, ZP, S, gen, ptol)
     body_inertias(KP, DP, YP, ZP)
     return rank, nf
 
 
 @njit(nrt=False)
-def _rate_forces(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
-                 gen: np.ndarray | None, rank: int, nf: int, u: np.ndarray,
-                 cv: np.ndarray, Qv: np.ndarray) -> tuple[float, float]:
-    """c and Q (nf each) at generalized rates u (nf,), the posture eliminated and z.Gb set;
-    returns the kinetic and potential energies."""
+def forces_at_rates(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
+                    gen: np.ndarray | None, rank: int, nf: int, u: np.ndarray,
+                    cv: np.ndarray, Qv: np.ndarray) -> tuple[float, float]:
+    """c and Q of (10.15) into cv, Qv (nf each) at generalized rates u (nf,): joint rates
+    phi' u (7.16), velocity-product accelerations, inertia wrenches (10.8) and the
+    applied loads (9.5-9.11) with the law values z.law held, projected on the
+    generalized coordinates.  Needs :func:`set_point` at the posture (rank, nf its
+    returns).  Returns the kinetic and potential energies."""
     z = dyn_data_views(ZP)
     _set_rates(KP, DP, S, gen, rank, z.Gf[:, :nf], u)
     ke = inertia_wrenches(KP, DP, ZP)
@@ -302,19 +386,21 @@ def _rate_forces(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
 
 @njit(nrt=False)
 def _motion_terms(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
-                  gen: np.ndarray | None, ptol: float, nf: int, u: np.ndarray,
-                  a: np.ndarray, zero: np.ndarray, Mw: np.ndarray, cv: np.ndarray,
-                  Qv: np.ndarray, r: np.ndarray, qd: np.ndarray) -> int:
-    """r = M psi''* + c(psi, u) - Q(psi, u) + Q(psi, 0) (nf,) at the posture S.q, closed
-    beforehand, with the coordinates of z.cols held: the velocity-dependent part of
-    the residual, whose psi-derivative is what the book's K leaves out; qd (nq,) the
-    joint rates phi' u there.  Returns the rank, -1 when the coordinates are not
-    the same."""
-    rank, nf2 = _setup(KP, DP, YP, ZP, S, gen, ptol)
+                  gen: np.ndarray | None, ptol: float, nf: int, work: LinWork,
+                  qd: np.ndarray) -> int:
+    """r = M psi''* + c(psi, u) - Q(psi, u) + Q(psi, 0) into work.r[:nf] at the posture
+    S.q, closed beforehand, with the coordinates of z.cols held, for the generalized
+    rates u = work.u[:nf] and accelerations a = work.a[:nf]: the velocity-dependent
+    part of the residual, whose psi-derivative is what the book's K leaves out; qd
+    (nq,) the joint rates phi' u there.  work.Mw, work.cv, work.Qv scratch.  Returns
+    the rank, -1 when the coordinates are not the same."""
+    u, a, zero, Mw = work.u[:nf], work.a[:nf], work.zero[:nf], work.Mw[:nf, :nf]
+    cv, Qv, r = work.cv, work.Qv, work.r
+    rank, nf2 = set_point(KP, DP, YP, ZP, S, gen, ptol)
     if nf2 != nf:
         return -1
     mass_matrix(KP, ZP, Mw)
-    _rate_forces(KP, DP, YP, ZP, S, gen, rank, nf, u, cv, Qv)
+    forces_at_rates(KP, DP, YP, ZP, S, gen, rank, nf, u, cv, Qv)
     for c in range(qd.shape[0]):
         qd[c] = S.qd[c]
     for i in range(nf):
@@ -322,7 +408,7 @@ def _motion_terms(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
         for j in range(nf):
             s += Mw[i, j] * a[j]
         r[i] = s
-    _rate_forces(KP, DP, YP, ZP, S, gen, rank, nf, zero, cv, Qv)
+    forces_at_rates(KP, DP, YP, ZP, S, gen, rank, nf, zero, cv, Qv)
     for i in range(nf):
         r[i] += Qv[i] - cv[i]  # c(psi, 0) = 0: kept for symmetry of the two passes
     return rank
@@ -330,27 +416,26 @@ def _motion_terms(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
 
 @njit(nrt=False)
 def linearize_kernel(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
-                     gen: np.ndarray | None, opts: np.ndarray, psid: np.ndarray,
-                     psidd: np.ndarray, out: tuple, work: tuple) -> tuple[int, int, int]:
+                     gen: np.ndarray | None, opts: LinOptions, psid: np.ndarray,
+                     psidd: np.ndarray, out: Linearized, work: LinWork) -> tuple[int, int, int]:
     """M, D, K, F of (11.7)-(11.10) at the assembled posture S.q (internal units).
 
-    opts = (pivot tolerance, closure tolerance, motion step h, differentiate
-    motion terms 0/1, keep the closed postures 0/1).  psid, psidd: (nq,) rates
-    and accelerations of the generalized coordinates (others ignored).
-    out = (M, D, K, F, P2, A2, Gl, qpl, qdpl): M, D, K (nq, nq) and F (nq,), their
-    leading (nf, nf) used; P2, A2 of :func:`second_derivatives`; Gl (nq, nlaw)
-    the generalized direction of every law (dQ/dlaw); qpl (nq, 4, nq) the
-    postures closed at psi* + (-2h, -h, h, 2h) e_l, qdpl the joint rates there
-    (phi' psi'*; with the motion terms only, else 0).  work = (u, a, zero, cv,
-    Qv, cp, Qp, r, dF, dfq, q0, sgc0, Mw) scratch.  Returns (nf, rank, status):
-    status 0, or l + 1 when the closure at coordinate l failed.
+    opts: :class:`LinOptions`.  psid, psidd: (nq,) rates and accelerations of the
+    generalized coordinates (others ignored).  out: :class:`Linearized` (M, D, K, F
+    over the leading nf coordinates; P2, A2 of :func:`second_derivatives`; the laws'
+    directions Gl; with ``opts.motion`` or ``opts.keep`` the closed postures qpl and,
+    with the motion terms only, their joint rates qdpl).  work: :class:`LinWork`
+    scratch.  Returns (nf, rank, status): status 0, or l + 1 when the closure at
+    coordinate l failed.
     """
-    M, D, K, F, P2, A2, Gl, qpl, qdpl = out
-    u, a, zero, cv, Qv, cp, Qp, r, dF, dfq, q0, sgc0, Mw = work
+    M, D, K, F, P2 = out.M, out.D, out.K, out.F, out.P2
+    Gl, qpl, qdpl = out.Gl, out.qpl, out.qdpl
+    u, a, zero, cv, Qv = work.u, work.a, work.zero, work.cv, work.Qv
+    cp, Qp, r, q0, sgc0 = work.cp, work.Qp, work.r, work.q0, work.sgc0
     z = dyn_data_views(ZP)
-    ptol = opts[0]
+    ptol = opts.pivot_tol
     nq = S.q.shape[0]
-    rank, nf = _setup(KP, DP, YP, ZP, S, gen, ptol)
+    rank, nf = set_point(KP, DP, YP, ZP, S, gen, ptol)
     cols = z.cols
     for j in range(nf):
         u[j] = psid[cols[j]]
@@ -358,7 +443,7 @@ def linearize_kernel(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
         zero[j] = 0.0
     mass_matrix(KP, ZP, M[:nf, :nf])
     # F (11.10) at the set point
-    _rate_forces(KP, DP, YP, ZP, S, gen, rank, nf, u[:nf], cv, Qv)
+    forces_at_rates(KP, DP, YP, ZP, S, gen, rank, nf, u[:nf], cv, Qv)
     for i in range(nf):
         F[i] = Qv[i] - cv[i]
     # generalized direction of every law: Q is affine in each law value
@@ -366,7 +451,7 @@ def linearize_kernel(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
         if e >= z.law.shape[0] or Gl.shape[0] == 0:
             break
         z.law[e] += 1.0
-        _rate_forces(KP, DP, YP, ZP, S, gen, rank, nf, u[:nf], cp, Qp)
+        forces_at_rates(KP, DP, YP, ZP, S, gen, rank, nf, u[:nf], cp, Qp)
         z.law[e] -= 1.0
         for i in range(nf):
             Gl[i, e] = Qp[i] - Qv[i]
@@ -376,24 +461,23 @@ def linearize_kernel(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
         step = max(step, abs(u[j]))
     for k in range(nf):
         u[k] += step
-        _rate_forces(KP, DP, YP, ZP, S, gen, rank, nf, u[:nf], cp, Qp)
+        forces_at_rates(KP, DP, YP, ZP, S, gen, rank, nf, u[:nf], cp, Qp)
         for i in range(nf):
             r[i] = cp[i] - Qp[i]
         u[k] -= 2.0 * step
-        _rate_forces(KP, DP, YP, ZP, S, gen, rank, nf, u[:nf], cp, Qp)
+        forces_at_rates(KP, DP, YP, ZP, S, gen, rank, nf, u[:nf], cp, Qp)
         u[k] += step
         for i in range(nf):
             D[i, k] = (r[i] - (cp[i] - Qp[i])) / (2.0 * step)
     # K (11.9) of the loads at rest, closed form
-    load_stiffness(KP, DP, YP, ZP, S, gen, rank, nf, P2, A2, cp, Qp, dF, dfq, K)
+    load_stiffness(KP, DP, YP, ZP, S, gen, rank, nf, K, out, work)
     G = z.Gf
     status = 0
-    moving = opts[3] != 0.0
-    keep = opts[4] != 0.0
-    if not (moving or keep):
+    moving = opts.motion
+    if not (moving or opts.keep):
         return nf, rank, status
     # the motion terms: central differences over closed postures, Richardson
-    h = opts[2]
+    h = opts.h
     for c in range(nq):
         q0[c] = S.q[c]
         sgc0[c] = S.sgc[c]
@@ -408,15 +492,14 @@ def linearize_kernel(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
             s = offsets[p] * h
             for c in range(nq):
                 S.q[c] = q0[c] + s * G[c, l] + 0.5 * s * s * P2[c, l, l]
-            st = newton(KP, DP, S, gen, opts[1], ptol, 30, False)[0]
+            st = newton(KP, DP, S, gen, opts.close_tol, ptol, 30, False)[0]
             if st != 0:
                 status = l + 1
                 break
             for c in range(nq):
                 qpl[l, p, c] = S.q[c]
             if moving:
-                if _motion_terms(KP, DP, YP, ZP, S, gen, ptol, nf, u[:nf], a[:nf],
-                                 zero[:nf], Mw[:nf, :nf], cv, Qv, r, qdpl[l, p]) < 0:
+                if _motion_terms(KP, DP, YP, ZP, S, gen, ptol, nf, work, qdpl[l, p]) < 0:
                     status = l + 1
                     break
                 for i in range(nf):
@@ -430,47 +513,43 @@ def linearize_kernel(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
     for c in range(nq):
         S.q[c] = q0[c]
         S.sgc[c] = sgc0[c]
-    _setup(KP, DP, YP, ZP, S, gen, ptol)
-    _rate_forces(KP, DP, YP, ZP, S, gen, rank, nf, u[:nf], cv, Qv)
+    set_point(KP, DP, YP, ZP, S, gen, ptol)
+    forces_at_rates(KP, DP, YP, ZP, S, gen, rank, nf, u[:nf], cv, Qv)
     return nf, rank, status
 
 
 @njit(nrt=False)
 def linearize_steps(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
-                    gen: np.ndarray | None, opts: np.ndarray, Q: np.ndarray,
-                    PSID: np.ndarray, PSIDD: np.ndarray, T: np.ndarray, MDK: np.ndarray,
-                    NF: np.ndarray, COLS: np.ndarray, RES: np.ndarray, out: tuple,
-                    work: tuple) -> None:
-    """:func:`linearize_kernel` at every row of Q (steps, nq; internal units, assembled
-    postures) with the rates PSID, accelerations PSIDD (steps, nq) and times T
-    (steps,), the SGCs S.sgc throughout: M, D, K into MDK (steps, 3, nq, nq), the
-    coordinate count (or -1 where a closure failed) into NF and the coordinates
-    into COLS (steps, nq), the largest loop residual of the posture into RES (steps,).
-    ``opts[3]`` (motion terms) applies where a step moves."""
+                    gen: np.ndarray | None, opts: LinOptions, steps: LinSteps,
+                    out: Linearized, work: LinWork) -> None:
+    """:func:`linearize_kernel` at every set point of ``steps`` (:class:`LinSteps`: the
+    assembled postures, internal units, with their rates, accelerations and times), the
+    SGCs S.sgc throughout, writing its M, D, K, coordinate counts, coordinates and
+    loop residuals.  ``opts.motion`` (the motion terms) applies where a step moves."""
     z = dyn_data_views(ZP)
     d = data_views(DP)
-    M, D, K = out[0], out[1], out[2]
-    moving = opts[3]
+    M, D, K = out.M, out.D, out.K
+    Q = steps.q
     for k in range(Q.shape[0]):
         for c in range(Q.shape[1]):
             S.q[c] = Q[k, c]
-        S.t[0] = T[k]
+        S.t[0] = steps.t[k]
         still = True
         for c in range(Q.shape[1]):
-            if PSID[k, c] != 0.0 or PSIDD[k, c] != 0.0:
+            if steps.psid[k, c] != 0.0 or steps.psidd[k, c] != 0.0:
                 still = False
-        opts[3] = 0.0 if still else moving
-        nf, _, status = linearize_kernel(KP, DP, YP, ZP, S, gen, opts, PSID[k], PSIDD[k],
-                                         out, work)
-        opts[3] = moving
-        NF[k] = nf if status == 0 else -1
+        o = LinOptions(opts.pivot_tol, opts.close_tol, opts.h, opts.motion and not still,
+                       opts.keep)
+        nf, _, status = linearize_kernel(KP, DP, YP, ZP, S, gen, o, steps.psid[k],
+                                         steps.psidd[k], out, work)
+        steps.nf[k] = nf if status == 0 else -1
         res = 0.0
         for r in range(d.E.shape[0]):
             res = max(res, abs(d.E[r]))
-        RES[k] = res
+        steps.res[k] = res
         for i in range(nf):
-            COLS[k, i] = z.cols[i]
+            steps.cols[k, i] = z.cols[i]
             for j in range(nf):
-                MDK[k, 0, i, j] = M[i, j]
-                MDK[k, 1, i, j] = D[i, j]
-                MDK[k, 2, i, j] = K[i, j]
+                steps.mdk[k, 0, i, j] = M[i, j]
+                steps.mdk[k, 1, i, j] = D[i, j]
+                steps.mdk[k, 2, i, j] = K[i, j]

@@ -18,7 +18,15 @@ import numpy as np
 
 from openimp.dynamics.eom import equations
 from openimp.dynamics.laws import law_derivatives, law_values_at
-from openimp.dynamics.linear import H_MOTION, linearize_kernel
+from openimp.dynamics.linear import (
+    H_MOTION,
+    Linearized,
+    LinOptions,
+    LinWork,
+    linearize_kernel,
+    make_lin_work,
+    make_linearized,
+)
 from openimp.errors import AnalysisError, InputError
 from openimp.kinematics.inputs import (
     finite,
@@ -105,15 +113,14 @@ def linearize(system: System, q: Any = None, rates: Any = None, accels: Any = No
         motion_accelerations(system, S, psid, psidd, named(system, accels), pivot_tol)
     scratch = WORKSPACES.take(system, "linearize", _scratch)  # given back when done
     data, dyn, out, work = scratch
-    out[8][:] = 0.0  # the joint rates at the closed postures: written only when moving
+    out.qdpl[:] = 0.0  # the joint rates at the closed postures: written only when moving
     nlaw = len(system.laws)
     moving = motion_terms and bool(np.any(psid) or np.any(psidd))
-    opts = np.array([pivot_tol, CLOSE_TOL, H_MOTION, float(moving), float(nlaw > 0)])
+    opts = LinOptions(pivot_tol, CLOSE_TOL, H_MOTION, moving, nlaw > 0)
     if nlaw:
         # the laws at the set point's joint rates phi' psi': phi' from a first pass
         # without the differenced terms, which need the laws' values
-        first = opts.copy()
-        first[3:] = 0.0
+        first = LinOptions(pivot_tol, CLOSE_TOL, H_MOTION, False, False)
         nf = _kernel(system, data, dyn, S, first, psid, psidd, out, work)[0]
         qd = dyn.views("Gf")[:, :nf] @ psid[dyn.views("cols")[:nf]]
         dyn.views("law")[:] = law_values_at(system, S.q[None, :], qd[None, :], t)[0]
@@ -136,7 +143,7 @@ def linearize(system: System, q: Any = None, rates: Any = None, accels: Any = No
         raise AnalysisError(f"linearize: the loops do not close when {name} moves by "
                             f"{H_MOTION:g} from the set point: the posture is at or near a "
                             "singular position; move the set point away from it")
-    M, D, K, F, _, _, Gl, qpl, qdpl = out
+    M, D, K, F, Gl, qpl, qdpl = out.M, out.D, out.K, out.F, out.Gl, out.qpl, out.qdpl
     cols = dyn.views("cols")[:nf].copy()
     _check_coordinates(system, data, cols, rank, S.sgc, psid, psidd, given)
     G = dyn.views("Gf")[:, :nf].copy()
@@ -205,8 +212,8 @@ def _check_coordinates(system: System, data: Any, cols: np.ndarray, rank: int,
                              "specify it, or give the value of a generalized coordinate")
 
 
-def _kernel(system: System, data: Any, dyn: Any, S: Any, opts: np.ndarray, psid: np.ndarray,
-            psidd: np.ndarray, out: tuple, work: tuple) -> tuple[int, int, int]:
+def _kernel(system: System, data: Any, dyn: Any, S: Any, opts: LinOptions, psid: np.ndarray,
+            psidd: np.ndarray, out: Linearized, work: LinWork) -> tuple[int, int, int]:
     q0 = S.q.copy()
     res = linearize_kernel(system.KP, data.DP, system.YP, dyn.ZP, S, system.gen, opts,
                            psid, psidd, out, work)
@@ -285,7 +292,7 @@ class _Views:
         return v
 
 
-def _scratch(system: System) -> tuple[Any, Any, tuple, tuple]:
+def _scratch(system: System) -> tuple[Any, Any, Linearized, LinWork]:
     """(Data, DynData, out, work) of one :func:`linearize` call, kept per system by
     :data:`~openimp.workspace.WORKSPACES` (allocating them costs as much as the
     compiled kernel; the results never alias them); the Data and DynData carry
@@ -295,13 +302,7 @@ def _scratch(system: System) -> tuple[Any, Any, tuple, tuple]:
     return (data, dyn, *kernel_buffers(system))
 
 
-def kernel_buffers(system: System) -> tuple[tuple, tuple]:
-    """The out and work tuples of :func:`~openimp.dynamics.linear.linearize_kernel`."""
-    nq, nb, nlaw = system.nq, len(system.bodies), len(system.laws)
-    out = (np.zeros((nq, nq)), np.zeros((nq, nq)), np.zeros((nq, nq)), np.zeros(nq),
-           np.zeros((nq, nq, nq)), np.zeros((nb, nq, nq, 6)), np.zeros((nq, nlaw)),
-           np.zeros((nq, 4, nq)), np.zeros((nq, 4, nq)))
-    work = (np.zeros(nq), np.zeros(nq), np.zeros(nq), np.zeros(nq), np.zeros(nq),
-            np.zeros(nq), np.zeros(nq), np.zeros(nq), np.zeros((nb, 6)), np.zeros(nq),
-            np.zeros(nq), np.zeros(nq, np.bool_), np.zeros((nq, nq)))
-    return out, work
+def kernel_buffers(system: System) -> tuple[Linearized, LinWork]:
+    """The out and work of :func:`~openimp.dynamics.linear.linearize_kernel`."""
+    nq, nb = system.nq, len(system.bodies)
+    return make_linearized(nq, nb, len(system.laws)), make_lin_work(nq, nb)

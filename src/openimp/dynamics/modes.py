@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from openimp.dynamics.eom import mass_floor, massless_message, null_motion, singular_masses
-from openimp.dynamics.linear import H_MOTION, linearize_steps
+from openimp.dynamics.linear import H_MOTION, LinOptions, LinSteps, linearize_steps
 from openimp.dynamics.linearize import (
     ASSEMBLED,
     CLOSE_TOL,
@@ -282,13 +282,13 @@ def modes_along(system: System, q: Any, rates: Any = None, accels: Any = None, *
     data = make_data(system, nq)
     dyn = make_dyn_data(system, nq)
     out, work = kernel_buffers(system)
-    opts = np.array([pivot_tol, CLOSE_TOL, H_MOTION, 1.0, 0.0])
-    MDK = np.zeros((n, 3, nq, nq))
-    NF = np.zeros(n, np.int64)
-    COLS = np.zeros((n, nq), np.int64)
-    RES = np.zeros(n)
-    linearize_steps(system.KP, data.DP, system.YP, dyn.ZP, S, system.gen, opts,
-                    system.to_internal(qm), psid, psidd, T, MDK, NF, COLS, RES, out, work)
+    opts = LinOptions(pivot_tol, CLOSE_TOL, H_MOTION, True, False)
+    steps = LinSteps(q=system.to_internal(qm), psid=psid, psidd=psidd, t=T,
+                     mdk=np.zeros((n, 3, nq, nq)), nf=np.zeros(n, np.int64),
+                     cols=np.zeros((n, nq), np.int64), res=np.zeros(n))
+    linearize_steps(system.KP, data.DP, system.YP, dyn.ZP, S, system.gen, opts, steps, out,
+                    work)
+    MDK, NF, COLS, RES = steps.mdk, steps.nf, steps.cols, steps.res
     loose = np.flatnonzero(RES > ASSEMBLED)
     NF[loose] = -2
     vs = system.var_scale

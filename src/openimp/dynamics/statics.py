@@ -13,37 +13,62 @@ test, increment limit, neutral freedoms) is :mod:`~openimp.dynamics.equilibrium`
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from openimp._jit import njit
-from openimp.dynamics.linear import _rate_forces, _setup, load_stiffness
+from openimp.dynamics.linear import (
+    Linearized,
+    LinWork,
+    forces_at_rates,
+    load_stiffness,
+    make_lin_work,
+    make_linearized,
+    set_point,
+)
 from openimp.kinematics.posture import newton
+from openimp.linalg import full_pivot, sym_eigen
 from openimp.system import data_views, dyn_data_views
+
+
+class Evaluation(NamedTuple):
+    """The static residual and stiffness at one posture (internal units), over the nf
+    generalized coordinates of its elimination (leading entries used)."""
+
+    F: np.ndarray  #: (nq,) unbalanced generalized load (12.1)
+    K: np.ndarray  #: (nq, nq) stiffness of the loads at rest (12.2)
+    cols: np.ndarray  #: (nq,) int, the generalized coordinates (z.cols)
+
+
+def make_evaluation(nq: int) -> Evaluation:
+    """Zeroed :class:`Evaluation` for nq joint variables."""
+    return Evaluation(F=np.zeros(nq), K=np.zeros((nq, nq)), cols=np.zeros(nq, np.int64))
 
 
 @njit(nrt=False)
 def static_point(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
-                 gen: np.ndarray | None, ptol: float, want_k: bool, F: np.ndarray,
-                 K: np.ndarray, P2: np.ndarray, A2: np.ndarray, work: tuple
-                 ) -> tuple[int, int, float, float]:
+                 gen: np.ndarray | None, ptol: float, want_k: bool, at: Evaluation,
+                 lin: Linearized, work: LinWork) -> tuple[int, int, float, float]:
     """F (12.1) and, with ``want_k``, K (12.2) at the assembled posture S.q (internal
     units) over the generalized coordinates that the elimination with S.sgc leaves
-    (z.cols, their phi' in z.Gf): F[:nf], K[:nf, :nf].
+    (z.cols, their phi' in z.Gf): at.F[:nf], at.K[:nf, :nf], at.cols[:nf].
 
-    P2 (nq, nq, nq), A2 (nb, nq, nq, 6): second derivatives (scratch);
-    work = (u, cv, cp, Qp, dF (nb, 6), dfq).  Returns (nf, rank, potential energy
-    of gravity and linear springs, load scale): the scale is the sum of the
-    magnitudes of every body's force, its moment about the body's centre of mass
-    (frame origin when massless) and every joint load, the size against which a
-    residual is judged balanced.
+    lin: its P2, A2 receive the second derivatives (scratch; nothing else of it is
+    written); work: the scratch of :func:`~openimp.dynamics.linear.load_stiffness`
+    and u, cv.  Returns (nf, rank, potential energy of gravity and linear springs,
+    load scale): the scale is the sum of the magnitudes of every body's force, its
+    moment about the body's centre of mass (frame origin when massless) and every
+    joint load, the size against which a residual is judged balanced.
     """
-    u, cv, cp, Qp, dF, dfq = work
+    u, cv, F = work.u, work.cv, at.F
     z = dyn_data_views(ZP)
     d = data_views(DP)
-    rank, nf = _setup(KP, DP, YP, ZP, S, gen, ptol)
+    rank, nf = set_point(KP, DP, YP, ZP, S, gen, ptol)
     for j in range(nf):
         u[j] = 0.0
-    pe = _rate_forces(KP, DP, YP, ZP, S, gen, rank, nf, u[:nf], cv, F)[1]
+        at.cols[j] = z.cols[j]
+    _, pe = forces_at_rates(KP, DP, YP, ZP, S, gen, rank, nf, u[:nf], cv, F)
     scale = 0.0
     for b in range(z.Fext.shape[0]):
         # force, and moment about the body's centre of mass (or its frame's origin when
@@ -64,7 +89,7 @@ def static_point(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
     for j in range(nf):
         F[j] -= cv[j]  # zero at rest; kept so that F is (11.10) at psi' = 0
     if want_k:
-        load_stiffness(KP, DP, YP, ZP, S, gen, rank, nf, P2, A2, cp, Qp, dF, dfq, K)
+        load_stiffness(KP, DP, YP, ZP, S, gen, rank, nf, at.K, lin, work)
         for a in range(S.qd.shape[0]):
             S.qd[a] = 0.0
     return nf, rank, pe, scale
@@ -94,161 +119,155 @@ def close_posture(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, cols: 
 STEPPED, BALANCED, NO_FREE, CAPPED, FAILED = 0, 1, 2, 3, 4
 #: kinds of search step (history)
 NEWTON, DESCENT, MODIFIED, NEUTRAL_STEP, ESCAPE = 0, 1, 2, 3, 4
-#: opts of :func:`search_step`
-(O_PTOL, O_RTOL, O_FTOL, O_STEPTOL, O_LIMIT, O_NEUTRAL, O_STABLE, O_MAY_STEP, O_MAY_ESCAPE,
- O_NUMERIC_K, O_CLOSE) = range(11)
-#: state of :func:`search_step` (kept between steps)
-(S_SEEN, S_HAVE, S_NF, S_RANK, S_PE, S_SCALE, S_KIND, S_FMAX, S_STEPMAX, S_ITER, S_QUALITY,
- S_EVALS, S_KEVALS, S_CLOSED) = range(14)
 
 
-@njit(nrt=False)
-def full_pivot(A: np.ndarray, n: int, eps: float, rleft: np.ndarray, cleft: np.ndarray,
-               prow: np.ndarray, pcol: np.ndarray) -> int:
-    """Gauss-Jordan elimination of the augmented A (n, n+1) = [K | F] with full pivoting
-    (book 12.6), in place: pivots are taken while the largest entry of the Schur
-    complement exceeds ``eps``.  prow, pcol (n,) receive the pivots in order; rleft,
-    cleft (n,) bool mark the rows and columns left (the neutral group).  Returns the
-    number of pivots.  After it, x[pcol[k]] = A[prow[k], n] - sum over the neutral
-    columns j of A[prow[k], j] x[j], and A[r, n] of a row left is its reduced load."""
-    for i in range(n):
-        rleft[i] = True
-        cleft[i] = True
-    npiv = 0
-    for _ in range(n):
-        best = -1.0
-        r = -1
-        c = -1
-        for i in range(n):
-            if not rleft[i]:
-                continue
-            for j in range(n):
-                if cleft[j] and abs(A[i, j]) > best:
-                    best = abs(A[i, j])
-                    r = i
-                    c = j
-        if r < 0 or best <= eps:
-            break
-        p = A[r, c]
-        for j in range(n + 1):
-            A[r, j] /= p
-        for i in range(n):
-            if i != r and A[i, c] != 0.0:
-                f = A[i, c]
-                for j in range(n + 1):
-                    A[i, j] -= f * A[r, j]
-        rleft[r] = False
-        cleft[c] = False
-        prow[npiv] = r
-        pcol[npiv] = c
-        npiv += 1
-    return npiv
+class StepOptions(NamedTuple):
+    """Options of :func:`search_step` (internal units unless said)."""
+
+    pivot_tol: float  #: pivot tolerance of the elimination (ch 6)
+    rtol: float  #: balanced: every |F_i| <= rtol x the largest load scale seen ...
+    force_tol: float  #: ... or, when >= 0, <= force_tol in model units (force, moment)
+    step_tol: float  #: when >= 0, balanced also needs the next step <= it (model units)
+    limit: float  #: the increment limit (12.4), the whole step vector scaled
+    neutral: float  #: a pivot or eigenvalue below neutral x the stiffness' size is zero
+    stable: bool  #: seek a stable posture (the modified Newton step, the escape)
+    numeric_k: bool  #: the caller fills K (load laws); the search evaluates F only
+    close_tol: float  #: closure tolerance of the trial postures
 
 
-@njit(nrt=False)
-def sym_eigen(K: np.ndarray, n: int, W: np.ndarray, V: np.ndarray, lam: np.ndarray) -> None:
-    """Eigenvalues lam (n,) ascending and vectors V[:n, :n] (columns) of the symmetric part
-    of K[:n, :n], by cyclic Jacobi rotations; W (n, n) scratch."""
-    for i in range(n):
-        for j in range(n):
-            W[i, j] = 0.5 * (K[i, j] + K[j, i])
-            V[i, j] = 1.0 if i == j else 0.0
-    for _sweep in range(60):
-        off = 0.0
-        diag = 0.0
-        for i in range(n):
-            diag += W[i, i] * W[i, i]
-            for j in range(i + 1, n):
-                off += W[i, j] * W[i, j]
-        if off <= 1e-30 * diag or off == 0.0:
-            break
-        for p in range(n):
-            for q in range(p + 1, n):
-                if W[p, q] == 0.0:
-                    continue
-                theta = (W[q, q] - W[p, p]) / (2.0 * W[p, q])
-                t = (1.0 if theta >= 0 else -1.0) / (abs(theta) + np.sqrt(theta * theta + 1.0))
-                c = 1.0 / np.sqrt(t * t + 1.0)
-                s = t * c
-                for k in range(n):
-                    a = W[k, p]
-                    b = W[k, q]
-                    W[k, p] = c * a - s * b
-                    W[k, q] = s * a + c * b
-                for k in range(n):
-                    a = W[p, k]
-                    b = W[q, k]
-                    W[p, k] = c * a - s * b
-                    W[q, k] = s * a + c * b
-                for k in range(n):
-                    a = V[k, p]
-                    b = V[k, q]
-                    V[k, p] = c * a - s * b
-                    V[k, q] = s * a + c * b
-    for i in range(n):
-        lam[i] = W[i, i]
-    for i in range(n):  # selection sort, columns of V along
-        m = i
-        for j in range(i + 1, n):
-            if lam[j] < lam[m]:
-                m = j
-        if m != i:
-            x = lam[i]
-            lam[i] = lam[m]
-            lam[m] = x
-            for k in range(n):
-                x = V[k, i]
-                V[k, i] = V[k, m]
-                V[k, m] = x
+#: The record of a search, kept between steps (one line per field: name, type, meaning).
+SEARCH_STATE = np.dtype([
+    ("seen", np.float64),  # the largest load scale met so far
+    ("have", np.bool_),  # the scratch's evaluation (``now``) is the one at S.q
+    ("nf", np.int64),  # generalized coordinates of that evaluation
+    ("rank", np.int64),  # rank of the loop Jacobian there
+    ("pe", np.float64),  # potential energy of gravity and linear springs there
+    ("scale", np.float64),  # the load scale there (:func:`static_point`)
+    ("kind", np.int64),  # the kind of the last step taken (NEWTON ...)
+    ("fmax", np.float64),  # its largest generalized force at the start, model units
+    ("stepmax", np.float64),  # its largest coordinate change, model units
+    ("iter", np.int64),  # Newton iterations of the last closure
+    ("quality", np.float64),  # quality index of the last closure's elimination
+    ("closed", np.bool_),  # a closure was made (iter and quality are set)
+    ("evals", np.int64),  # evaluations of F
+    ("kevals", np.int64),  # evaluations of K
+    ("may_step", np.bool_),  # a step may be taken (the step cap not reached)
+    ("may_escape", np.bool_),  # an unstable equilibrium may be left
+    ("steps", np.int64),  # steps taken by :func:`search_loop`
+    ("escapes", np.int64),  # of them, escapes from an unstable equilibrium
+    ("neutral_steps", np.int64),  # of them, steps of a neutral group
+])
+
+
+def make_search_state() -> np.recarray:
+    """A zeroed :data:`SEARCH_STATE` record, as a (1,) record array: ``rec[0].nf``."""
+    return np.recarray(1, SEARCH_STATE, buf=np.zeros(1, SEARCH_STATE))
+
+
+#: One step of a search's history (:func:`search_loop`).
+STEP_RECORD = np.dtype([
+    ("kind", np.int64),  # the kind of step (NEWTON ...)
+    ("fmax", np.float64),  # the largest generalized force at its start, model units
+    ("stepmax", np.float64),  # its largest coordinate change, model units
+])
+
+
+def make_history(max_steps: int) -> np.recarray:
+    """A zeroed (max_steps,) :data:`STEP_RECORD` record array."""
+    return np.recarray(max_steps, STEP_RECORD, buf=np.zeros(max_steps, STEP_RECORD))
+
+
+class SearchBuffers(NamedTuple):
+    """The arrays of a search of a system of nq joint variables (internal units)."""
+
+    now: Evaluation  #: the evaluation at S.q (valid when the record's ``have``)
+    trial: Evaluation  #: a trial posture's
+    lin: Linearized  #: P2, A2: second derivatives (scratch of :func:`static_point`)
+    work: LinWork  #: scratch of :func:`static_point`
+    vs: np.ndarray  #: (nq,) model units of a coordinate per internal unit
+    gs: np.ndarray  #: (nq,) model units of a generalized force per internal unit
+    Gw: np.ndarray  #: (nq, nq) phi' of the FGCs
+    q0: np.ndarray  #: (nq,) the posture at the step's start
+    fidx: np.ndarray  #: (nq,) int, places of the FGCs among the coordinates
+    FF: np.ndarray  #: (nq,) F on the FGCs
+    KFF: np.ndarray  #: (nq, nq) K on the FGCs
+    A: np.ndarray  #: (nq, nq + 1) [K_FF | F_F], eliminated (12.6)
+    step: np.ndarray  #: (nq,) the step on the FGCs
+    lam: np.ndarray  #: (nq,) eigenvalues of K_FF's symmetric part
+    V: np.ndarray  #: (nq, nq) its eigenvectors
+    W: np.ndarray  #: (nq, nq) scratch of the eigen-solver
+    x0: np.ndarray  #: (nq,) the Newton step
+    red: np.ndarray  #: (nq,) the neutral group's reduced load
+    rleft: np.ndarray  #: (nq,) bool, rows left by the full pivoting
+    cleft: np.ndarray  #: (nq,) bool, columns left (the neutral group)
+    prow: np.ndarray  #: (nq,) int, pivot rows
+    pcol: np.ndarray  #: (nq,) int, pivot columns
+    keep: np.ndarray  #: (nq,) bool scratch of :func:`close_posture`
+
+
+def make_search_buffers(nq: int, nb: int, vs: np.ndarray, gs: np.ndarray) -> SearchBuffers:
+    """Zeroed :class:`SearchBuffers` for nq joint variables and nb bodies, with the
+    coordinate and force scales vs, gs (nq,)."""
+    f = np.zeros
+    return SearchBuffers(
+        now=make_evaluation(nq), trial=make_evaluation(nq), lin=make_linearized(nq, nb, 0),
+        work=make_lin_work(nq, nb), vs=vs, gs=gs, Gw=f((nq, nq)), q0=f(nq),
+        fidx=f(nq, np.int64), FF=f(nq), KFF=f((nq, nq)), A=f((nq, nq + 1)), step=f(nq),
+        lam=f(nq), V=f((nq, nq)), W=f((nq, nq)), x0=f(nq), red=f(nq),
+        rleft=f(nq, np.bool_), cleft=f(nq, np.bool_), prow=f(nq, np.int64),
+        pcol=f(nq, np.int64), keep=f(nq, np.bool_))
 
 
 @njit(nrt=False)
 def _evaluate(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | None,
-              opts: np.ndarray, state: np.ndarray, F: np.ndarray, K: np.ndarray,
-              cols: np.ndarray, P2: np.ndarray, A2: np.ndarray, work: tuple) -> int:
-    """:func:`static_point` at S.q into F, K (K only without numeric_k) and cols; counts."""
-    z = dyn_data_views(ZP)
-    want_k = opts[O_NUMERIC_K] == 0.0
-    nf, rank, pe, scale = static_point(KP, DP, YP, ZP, S, gen, opts[O_PTOL], want_k, F, K,
-                                       P2, A2, work)
-    for i in range(nf):
-        cols[i] = z.cols[i]
-    state[S_NF] = nf
-    state[S_RANK] = rank
-    state[S_PE] = pe
-    state[S_SCALE] = scale
-    state[S_EVALS] += 1.0
+              opts: StepOptions, state: np.ndarray, at: Evaluation, bufs: SearchBuffers
+              ) -> int:
+    """:func:`static_point` at S.q into ``at`` (K only without numeric_k); counts in the
+    record state[0]."""
+    st = state[0]
+    want_k = not opts.numeric_k
+    nf, rank, pe, scale = static_point(KP, DP, YP, ZP, S, gen, opts.pivot_tol, want_k, at,
+                                       bufs.lin, bufs.work)
+    st.nf = nf
+    st.rank = rank
+    st.pe = pe
+    st.scale = scale
+    st.evals += 1
     if want_k:
-        state[S_KEVALS] += 1.0
+        st.kevals += 1
     return nf
 
 
 @njit(nrt=False)
 def search_step(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | None,
-                opts: np.ndarray, state: np.ndarray, bufs: tuple, work: tuple) -> int:
+                opts: StepOptions, state: np.ndarray, bufs: SearchBuffers) -> int:
     """One step of the equilibrium search (book 12.2-12.6) from the assembled S.q.
 
-    bufs = (F, K, cols, F1, K1, cols1, P2, A2, Gw, q0, vs, gs, fidx, FF, KFF, A, step, lam,
-    V, W, x0, red, rleft, cleft, prow, pcol, keep): F (nq,), K (nq, nq), cols (nq,) int
-    the evaluation at S.q (valid when state[S_HAVE]; with opts[O_NUMERIC_K] the caller
-    fills K); F1, K1, cols1 the trial's; vs, gs (nq,) the coordinate and force scales
-    (model = internal x scale); the rest scratch.  opts and state: the O_* and S_*
-    entries.  Returns STEPPED (S.q moved to the accepted trial, whose evaluation is now
-    in F, K, cols), BALANCED, NO_FREE, CAPPED (not balanced, no step allowed) or FAILED
-    (no trial closed and lowered the energy; S.q unchanged).  state[S_KIND],
-    state[S_FMAX], state[S_STEPMAX]: the step taken, and the largest generalized force
-    and coordinate change over it, model units.
+    opts: :class:`StepOptions`; state: a (1,) :data:`SEARCH_STATE` record array
+    (:func:`make_search_state`), kept between steps; bufs: :class:`SearchBuffers`:
+    bufs.now the evaluation at S.q (valid when state[0].have; with opts.numeric_k the
+    caller fills its K), bufs.trial a trial's, bufs.vs, bufs.gs the coordinate and force
+    scales (model = internal x scale), the rest scratch.  Returns STEPPED (S.q moved to
+    the accepted trial, whose evaluation is now in bufs.now), BALANCED, NO_FREE, CAPPED
+    (not balanced, no step allowed: state[0].may_step false) or FAILED (no trial closed
+    and lowered the energy; S.q unchanged).  The record's kind, fmax, stepmax: the step
+    taken, and the largest generalized force and coordinate change over it, model units.
     """
-    (F, K, cols, F1, K1, cols1, P2, A2, Gw, q0, vs, gs, fidx, FF, KFF, A, step, lam, V, W,
-     x0, red, rleft, cleft, prow, pcol, keep) = bufs
+    F, K, cols = bufs.now.F, bufs.now.K, bufs.now.cols
+    F1, K1, cols1 = bufs.trial.F, bufs.trial.K, bufs.trial.cols
+    vs, gs, Gw, q0, fidx = bufs.vs, bufs.gs, bufs.Gw, bufs.q0, bufs.fidx
+    FF, KFF, A, step, x0 = bufs.FF, bufs.KFF, bufs.A, bufs.step, bufs.x0
+    lam, V, W = bufs.lam, bufs.V, bufs.W
+    rleft, cleft, prow, pcol = bufs.rleft, bufs.cleft, bufs.prow, bufs.pcol
+    st = state[0]
     z = dyn_data_views(ZP)
     nq = S.q.shape[0]
-    if state[S_HAVE] == 0.0:
-        _evaluate(KP, DP, YP, ZP, S, gen, opts, state, F, K, cols, P2, A2, work)
-        state[S_HAVE] = 1.0
-    nf = int(state[S_NF])
-    seen = max(state[S_SEEN], state[S_SCALE])
-    state[S_SEEN] = seen
+    if not st.have:
+        _evaluate(KP, DP, YP, ZP, S, gen, opts, state, bufs.now, bufs)
+        st.have = True
+    nf = st.nf
+    seen = max(st.seen, st.scale)
+    st.seen = seen
     nF = 0
     for i in range(nf):
         if not S.sgc[cols[i]]:
@@ -264,7 +283,7 @@ def search_step(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.nd
         for b in range(nF):
             KFF[a, b] = K[fidx[a], fidx[b]]
             kmax = max(kmax, abs(KFF[a, b]))
-    eps = opts[O_NEUTRAL] * max(kmax, seen, 1e-300)
+    eps = opts.neutral * max(kmax, seen, 1e-300)
     # follower loads make K_FF unsymmetric: no potential, so no energy test, no
     # stable-seeking (its symmetric part says nothing about divergence)
     asym = 0.0
@@ -275,8 +294,8 @@ def search_step(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.nd
     balanced = True
     ftol_max = 0.0
     for a in range(nF):
-        tol = opts[O_FTOL] / gs[cols[fidx[a]]] if opts[O_FTOL] >= 0.0 else \
-            opts[O_RTOL] * max(seen, 1e-300)
+        tol = opts.force_tol / gs[cols[fidx[a]]] if opts.force_tol >= 0.0 else \
+            opts.rtol * max(seen, 1e-300)
         ftol_max = max(ftol_max, tol)
         if abs(FF[a]) > tol:
             balanced = False
@@ -291,34 +310,33 @@ def search_step(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.nd
     for k in range(npiv):
         x0[pcol[k]] = A[prow[k], nF]
     small = True
-    if opts[O_STEPTOL] >= 0.0:
+    if opts.step_tol >= 0.0:
         for a in range(nF):
-            if abs(x0[a] * vs[cols[fidx[a]]]) > opts[O_STEPTOL]:
+            if abs(x0[a] * vs[cols[fidx[a]]]) > opts.step_tol:
                 small = False
     sym_eigen(KFF, nF, W, V, lam)
-    seek = opts[O_STABLE] != 0.0 and conservative
+    seek = opts.stable and conservative
     kind = NEWTON
     if balanced and small:
-        if not (seek and lam[0] < -eps and opts[O_MAY_ESCAPE] != 0.0):
+        if not (seek and lam[0] < -eps and st.may_escape):
             return BALANCED
         # an unstable equilibrium: leave it along its mode (the energy falls both ways
         # to second order), then search on
         kind = ESCAPE
         for a in range(nF):
-            step[a] = 0.1 * opts[O_LIMIT] * V[a, 0]
+            step[a] = 0.1 * opts.limit * V[a, 0]
     else:
-        if opts[O_MAY_STEP] == 0.0:
+        if not st.may_step:
             return CAPPED
-        kind = _choose(nF, FF, KFF, x0, A, npiv, prow, pcol, rleft, cleft, red, lam, V,
-                       step, eps, ftol_max, opts[O_LIMIT], seek)
+        kind = _choose(nF, npiv, bufs, eps, ftol_max, opts.limit, seek)
     # the increment limit (12.4): the whole vector scaled
     size = 0.0
     for a in range(nF):
         size += step[a] * step[a]
     size = np.sqrt(size)
-    if size > opts[O_LIMIT]:
+    if size > opts.limit:
         for a in range(nF):
-            step[a] *= opts[O_LIMIT] / size
+            step[a] *= opts.limit / size
     # trial postures: the loops closed with the coordinates held; halved on failure
     for c in range(nq):
         q0[c] = S.q[c]
@@ -336,14 +354,13 @@ def search_step(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.nd
             for a in range(nF):
                 s += Gw[c, a] * step[a]
             S.q[c] = s
-        st, it, det = close_posture(KP, DP, S, gen, cols[:nf], opts[O_CLOSE], opts[O_PTOL],
-                                    30, keep)
-        if st == 0:
-            state[S_ITER] = it
-            state[S_QUALITY] = det
-            state[S_CLOSED] = 1.0
-            nf1 = _evaluate(KP, DP, YP, ZP, S, gen, opts, state, F1, K1, cols1, P2, A2,
-                            work)
+        code, it, det = close_posture(KP, DP, S, gen, cols[:nf], opts.close_tol,
+                                      opts.pivot_tol, 30, bufs.keep)
+        if code == 0:
+            st.iter = it
+            st.quality = det
+            st.closed = True
+            nf1 = _evaluate(KP, DP, YP, ZP, S, gen, opts, state, bufs.trial, bufs)
             ok = kind == ESCAPE or (kind == NEWTON and not seek)
             if not ok:
                 # the loads did non-negative work over the step (trapezoid rule, each end
@@ -364,26 +381,26 @@ def search_step(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.nd
                     cols[i] = cols1[i]
                     for j in range(nf1):
                         K[i, j] = K1[i, j]
-                state[S_NF] = nf1
-                state[S_KIND] = kind
-                state[S_FMAX] = frec
-                state[S_STEPMAX] = smax
-                state[S_HAVE] = 1.0
+                st.nf = nf1
+                st.kind = kind
+                st.fmax = frec
+                st.stepmax = smax
+                st.have = True
                 return STEPPED
         for a in range(nF):
             step[a] *= 0.5
     for c in range(nq):
         S.q[c] = q0[c]
-    state[S_HAVE] = 0.0  # the scratch holds a trial's evaluation
+    st.have = False  # the scratch holds a trial's evaluation
     return FAILED
 
 
 @njit(nrt=False)
-def _choose(nF: int, FF: np.ndarray, KFF: np.ndarray, x0: np.ndarray, A: np.ndarray,
-            npiv: int, prow: np.ndarray, pcol: np.ndarray, rleft: np.ndarray,
-            cleft: np.ndarray, red: np.ndarray, lam: np.ndarray, V: np.ndarray,
-            step: np.ndarray, eps: float, ftol: float, limit: float, seek: bool) -> int:
-    """The search step on the FGCs into ``step`` (nF,); returns its kind.
+def _choose(nF: int, npiv: int, bufs: SearchBuffers, eps: float, ftol: float, limit: float,
+            seek: bool) -> int:
+    """The search step on the FGCs into bufs.step (nF,) from F_F, K_FF, the Newton step
+    x0, the full pivoting's A (npiv pivots, prow, pcol, rleft, cleft) and K_FF's
+    eigenvalues lam and vectors V; returns its kind.
 
     * a neutral group with an unbalanced reduced load: the book's 12.6 (b), a unit
       step of the group along its reduced load, the determinate group following
@@ -393,6 +410,9 @@ def _choose(nF: int, FF: np.ndarray, KFF: np.ndarray, x0: np.ndarray, A: np.ndar
     * otherwise Newton when the energy test passes (12.8: the loads do positive work
       along the step), else steepest descent (12.9) over the length where the
       stiffness says the energy stops falling."""
+    FF, KFF, x0, A, step = bufs.FF, bufs.KFF, bufs.x0, bufs.A, bufs.step
+    prow, pcol, rleft, cleft = bufs.prow, bufs.pcol, bufs.rleft, bufs.cleft
+    red, lam, V = bufs.red, bufs.lam, bufs.V
     # the neutral group's reduced load (the augmented column nF of the rows left), paired
     # in order with the columns left
     m = 0
@@ -452,29 +472,33 @@ def _choose(nF: int, FF: np.ndarray, KFF: np.ndarray, x0: np.ndarray, A: np.ndar
 
 @njit(nrt=False)
 def search_loop(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | None,
-                opts: np.ndarray, state: np.ndarray, bufs: tuple, work: tuple,
-                max_steps: int, hist: np.ndarray, counts: np.ndarray) -> int:
+                opts: StepOptions, state: np.ndarray, bufs: SearchBuffers,
+                hist: np.ndarray) -> int:
     """:func:`search_step` until the search ends (a model without load laws: one compiled
-    call per search).  At most ``max_steps`` steps; at most 4 of them leave an unstable
-    equilibrium.  hist (max_steps, 3) receives (kind, largest generalized force, largest
-    change) per step, counts (3,) the steps, escapes and neutral steps.  Returns the
-    code of the last :func:`search_step` (not STEPPED)."""
+    call per search).  At most hist.shape[0] steps (the step cap); at most 4 of them
+    leave an unstable equilibrium.  hist (max_steps,) :data:`STEP_RECORD` receives the
+    kind, largest generalized force and largest change of every step; the record
+    state[0] the steps, escapes and neutral steps.  Returns the code of the last
+    :func:`search_step` (not STEPPED)."""
+    st = state[0]
+    max_steps = hist.shape[0]
     steps = 0
     escapes = 0
     neutral = 0
     while True:
-        opts[O_MAY_STEP] = 1.0 if steps < max_steps else 0.0
-        opts[O_MAY_ESCAPE] = 1.0 if escapes < 4 and steps < max_steps else 0.0
-        code = search_step(KP, DP, YP, ZP, S, gen, opts, state, bufs, work)
-        if code != STEPPED or steps >= hist.shape[0]:  # (the second: never, by the cap)
-            counts[0] = steps
-            counts[1] = escapes
-            counts[2] = neutral
+        st.may_step = steps < max_steps
+        st.may_escape = escapes < 4 and steps < max_steps
+        code = search_step(KP, DP, YP, ZP, S, gen, opts, state, bufs)
+        if code != STEPPED or steps >= max_steps:  # (the second: never, by the cap)
+            st.steps = steps
+            st.escapes = escapes
+            st.neutral_steps = neutral
             return code if code != STEPPED else CAPPED
-        kind = int(state[S_KIND])
-        hist[steps, 0] = kind
-        hist[steps, 1] = state[S_FMAX]
-        hist[steps, 2] = state[S_STEPMAX]
+        kind = st.kind
+        h = hist[steps]
+        h.kind = kind
+        h.fmax = st.fmax
+        h.stepmax = st.stepmax
         steps += 1
         if kind == ESCAPE:
             escapes += 1

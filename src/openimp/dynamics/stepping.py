@@ -52,10 +52,17 @@ import numpy as np
 from openimp._jit import njit, packed_views
 from openimp.dynamics.eom import eom_loads, eom_rates
 from openimp.dynamics.hooks import Hook, call_hook
-from openimp.dynamics.linear import H_MOTION, linearize_kernel
+from openimp.dynamics.linear import (
+    H_MOTION,
+    LinOptions,
+    linearize_kernel,
+    make_lin_work,
+    make_linearized,
+)
 from openimp.kinematics.elimination import eliminate, free_columns, jacobian
 from openimp.kinematics.position import position
 from openimp.kinematics.posture import newton
+from openimp.linalg import cholesky_solve, expm
 from openimp.system import (
     DAMPER,
     SPRING,
@@ -147,10 +154,6 @@ GL_W = np.array([5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0])
 
 
 
-#: the options of :func:`~openimp.dynamics.linear.linearize_kernel` (w.lopts) and the
-#: arrays of its linear model (Work.lin), by name
-LIN_PTOL, LIN_CTOL, LIN_STEP, LIN_MOVING, LIN_KEEP = range(5)
-LIN_M, LIN_D, LIN_K, LIN_F, LIN_GL, LIN_QPL, LIN_QDPL = 0, 1, 2, 3, 6, 7, 8
 #: the three works and powers of the energy audit (w.w0, w.pw, ...): of the drives, of
 #: the loads without potential, dissipated
 DRIVE, LOADS, DISSIPATED = range(3)
@@ -241,7 +244,6 @@ WORK_FIELDS: tuple[Field, ...] = (
     Field("X2", "f", ("n", "n"), "scratch"),
     Field("X3", "f", ("n", "n"), "scratch"),
     Field("ap", "f", ("nq",), "predicted accelerations at the step end"),
-    Field("lopts", "f", (5,), "options of the linearization (linear.linearize_kernel)"),
     Field("lcols", "i", ("nq",), "column order of the linearization"),
     Field("iF", "i", ("nq",), "places of the FGCs in it"),
     Field("iS", "i", ("nq",), "places of the SGCs in it"),
@@ -321,11 +323,8 @@ def work_arrays(W: Work) -> KStep:
 
 def make_work(nq: int, ns: int, nb: int, nlaw: int) -> Work:
     """Zeroed arrays of :class:`Work` for nq joint variables, ns SGCs, nb bodies."""
-    f = np.zeros
-    lin = (f((nq, nq)), f((nq, nq)), f((nq, nq)), f(nq), f((nq, nq, nq)), f((nb, nq, nq, 6)),
-           f((nq, max(nlaw, 1))), f((nq, 4, nq)), f((nq, 4, nq)))
-    lwork = (f(nq), f(nq), f(nq), f(nq), f(nq), f(nq), f(nq), f(nq), f((nb, 6)), f(nq),
-             f(nq), np.zeros(nq, np.bool_), f((nq, nq)))
+    lin = make_linearized(nq, nb, max(nlaw, 1))
+    lwork = make_lin_work(nq, nb)
     sizes = {"nq": nq, "ns": ns, "nstage": NSTAGE, "n": 2 * nq + 3, "nlaw": max(nlaw, 1)}
     return Work(allocate(WORK_FIELDS, sizes), lin, lwork)
 
@@ -376,45 +375,6 @@ def _close(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, W: Work,
         return NO_CLOSURE
     w.quality[0] = quality
     return OK
-
-
-@njit(nrt=False, inline="always")
-def _cholesky_solve(A: np.ndarray, n: int, b: np.ndarray, x: np.ndarray, tol: float,
-                    floor: float) -> bool:
-    """x = A^-1 b for the symmetric positive definite A[:n, :n] (overwritten by its
-    Cholesky factor); False when a pivot falls below tol times the larger of its
-    largest diagonal and ``floor`` (a singular mass matrix, IMP's ZERO (INERTIA)).
-    The floor is the matrix's scale when the coordinates were chosen: a matrix
-    that shrinks as a whole (a 1x1 m r^2 with r -> 0) is then singular too."""
-    big = floor
-    for i in range(n):
-        big = max(big, abs(A[i, i]))
-    if n > 0 and big <= 0.0:
-        return False
-    for j in range(n):
-        s = A[j, j]
-        for k in range(j):
-            s -= A[j, k] * A[j, k]
-        if s <= tol * big:
-            return False
-        d = math.sqrt(s)
-        A[j, j] = d
-        for i in range(j + 1, n):
-            s = A[i, j]
-            for k in range(j):
-                s -= A[i, k] * A[j, k]
-            A[i, j] = s / d
-    for i in range(n):
-        s = b[i]
-        for k in range(i):
-            s -= A[i, k] * x[k]
-        x[i] = s / A[i, i]
-    for i in range(n - 1, -1, -1):
-        s = x[i]
-        for k in range(i + 1, n):
-            s -= A[k, i] * x[k]
-        x[i] = s / A[i, i]
-    return True
 
 
 @njit(nrt=False, inline="always")
@@ -508,7 +468,7 @@ def evaluate(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarr
     if w.mscale[0] <= 0.0:  # the first evaluation with these coordinates
         for i in range(nF):
             w.mscale[0] = max(w.mscale[0], w.Lc[i, i])
-    if not _cholesky_solve(w.Lc, nF, w.rhs, w.aF, w.mtol[0], w.mscale[0]):
+    if not cholesky_solve(w.Lc, nF, w.rhs, w.aF, w.mtol[0], w.mscale[0]):
         return SINGULAR_MASS
     i = 0
     s = 0
@@ -764,46 +724,6 @@ def rk_attempt(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.nda
 
 # ------------------------------------------------------------------ the book's step
 @njit(nrt=False)
-def expm(A: np.ndarray, n: int, E: np.ndarray, X1: np.ndarray, X2: np.ndarray) -> None:
-    """E[:n, :n] = exp(A[:n, :n]) by scaling and squaring of the Taylor series (degree 16
-    after scaling to a norm <= 1/2: truncation below 1e-19); A is kept."""
-    norm = 0.0
-    for i in range(n):
-        s = 0.0
-        for j in range(n):
-            s += abs(A[i, j])
-        norm = max(norm, s)
-    sq = 0
-    if norm > 0.5:
-        sq = math.ceil(math.log2(norm / 0.5))
-    sc = 0.5 ** sq
-    for i in range(n):
-        for j in range(n):
-            X1[i, j] = A[i, j] * sc
-            E[i, j] = 1.0 if i == j else 0.0
-    for k in range(16, 0, -1):  # Horner: E = I + X1 E / k
-        for i in range(n):
-            for j in range(n):
-                s = 0.0
-                for m in range(n):
-                    s += X1[i, m] * E[m, j]
-                X2[i, j] = s / k
-        for i in range(n):
-            for j in range(n):
-                E[i, j] = X2[i, j] + (1.0 if i == j else 0.0)
-    for _ in range(sq):
-        for i in range(n):
-            for j in range(n):
-                s = 0.0
-                for m in range(n):
-                    s += E[i, m] * E[m, j]
-                X2[i, j] = s
-        for i in range(n):
-            for j in range(n):
-                E[i, j] = X2[i, j]
-
-
-@njit(nrt=False)
 def book_linearize(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
                    gen: np.ndarray | None, W: Work) -> int:
     """M, D, K, F of ch 11 (11.7-11.10) at the step start, the FGCs and SGCs held, into
@@ -829,22 +749,18 @@ def book_linearize(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
     for s in range(nS):
         w.psid[w.scols[s]] = w.ms[0, s, 1]
         w.rhs[w.scols[s]] = w.ms[0, s, 2]
-    o = w.lopts
-    o[LIN_PTOL] = w.ptol[0]
-    o[LIN_CTOL] = w.ctol[0]
-    o[LIN_STEP] = H_MOTION
-    o[LIN_KEEP] = 1.0 if w.laws[0] else 0.0  # the closed postures, for the laws' slopes
     # the book's K (11.9) holds at rest; in motion its position derivatives of the
     # inertia and damper terms are added (differences over closed postures), which
     # makes the step second order
-    moving = 0.0
+    moving = False
     for j in range(nF):
         if w.v0[j] != 0.0 or w.kv[0, j] != 0.0:
-            moving = 1.0
+            moving = True
     for s in range(nS):
         if w.ms[0, s, 1] != 0.0 or w.ms[0, s, 2] != 0.0:
-            moving = 1.0
-    o[LIN_MOVING] = moving
+            moving = True
+    # with laws the closed postures are kept, for the laws' slopes
+    o = LinOptions(w.ptol[0], w.ctol[0], H_MOTION, moving, w.laws[0])
     nf, _, status = linearize_kernel(KP, DP, YP, ZP, S, gen, o, w.psid, w.rhs, W.lin,
                                      W.lwork)
     # the closed postures (and their rates) are whole only when every closure converged
@@ -852,10 +768,10 @@ def book_linearize(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
     if status != 0:  # a closure of the motion terms failed: the book's K at rest
         for a in range(nq):
             S.q[a] = w.q0[a]
-        o[LIN_MOVING] = 0.0
+        o = LinOptions(o.pivot_tol, o.close_tol, o.h, False, o.keep)
         nf, _, _ = linearize_kernel(KP, DP, YP, ZP, S, gen, o, w.psid, w.rhs, W.lin, W.lwork)
-    if o[LIN_MOVING] == 0.0:  # at rest the joint rates at the closed postures are zero
-        qdpl = W.lin[LIN_QDPL]
+    if not o.motion:  # at rest the joint rates at the closed postures are zero
+        qdpl = W.lin.qdpl
         for i in range(qdpl.shape[0]):
             for p in range(qdpl.shape[1]):
                 for a in range(qdpl.shape[2]):
@@ -876,13 +792,13 @@ def book_linearize(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
         else:
             w.iS[b] = k
             b += 1
-    M = W.lin[LIN_M]
+    M = W.lin.M
     for j in range(nF):  # M_FF^-1 column by column
         for i in range(nF):
             for m in range(nF):
                 w.Lc[i, m] = M[w.iF[i], w.iF[m]]
             w.rhs[i] = 1.0 if i == j else 0.0
-        if not _cholesky_solve(w.Lc, nF, w.rhs, w.aF, w.mtol[0], w.mscale[0]):
+        if not cholesky_solve(w.Lc, nF, w.rhs, w.aF, w.mtol[0], w.mscale[0]):
             return SINGULAR_MASS
         for i in range(nF):
             w.Minv[i, j] = w.aF[i]
@@ -900,7 +816,7 @@ def book_predict(W: Work) -> int:
     system under such an input, where the book freezes it.  Returns OK or
     TOO_LARGE (a displacement above w.xmax[0], the book's step 7)."""
     w = step_views(W.P)
-    M, D, K, F = W.lin[LIN_M], W.lin[LIN_D], W.lin[LIN_K], W.lin[LIN_F]
+    M, D, K, F = W.lin.M, W.lin.D, W.lin.K, W.lin.F
     nF = w.nF[0]
     nS = w.scols.shape[0]
     tau = w.h[0]
@@ -1012,7 +928,7 @@ def book_finish(S: tuple, W: Work) -> int:
     w = step_views(W.P)
     nF = w.nF[0]
     h = w.h[0]
-    M = W.lin[LIN_M]
+    M = W.lin.M
     err = 0.0
     fmax = 0.0
     for i in range(nF):
@@ -1024,7 +940,7 @@ def book_finish(S: tuple, W: Work) -> int:
             f += mij * w.aF[j]
         gs = w.gscale[w.fcols[i]]
         err = max(err, abs(e) * gs)
-        fmax = max(fmax, abs(f) * gs, abs(W.lin[LIN_F][w.iF[i]]) * gs)
+        fmax = max(fmax, abs(f) * gs, abs(W.lin.F[w.iF[i]]) * gs)
     w.fscale[0] = max(w.fscale[0], fmax, w.lscale[0])
     tol = w.fabs[0]
     pct = 0.01 * w.fpct[0] * w.fscale[0]
