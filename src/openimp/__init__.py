@@ -38,6 +38,7 @@ from openimp.dynamics import (
 )
 from openimp.errors import AnalysisError, InputError, OpenIMPError
 from openimp.kinematics import BatchResult, sweep, sweep_batch
+from openimp.kinematics.ballrates import ball_rates
 from openimp.model import Model
 from openimp.results import (
     CoordinateSwitch,
@@ -102,6 +103,7 @@ __all__ = [
     "Trajectory",
     "TransferFunction",
     "__version__",
+    "ball_rates",
     "compile",
     "equations",
     "equilibria",

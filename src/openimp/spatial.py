@@ -30,6 +30,8 @@ from openimp.errors import InputError
 
 __all__ = [
     "axis_angle_to_er",
+    "er_angular_velocity",
+    "er_rates",
     "er_to_axis_angle",
     "er_to_rotation",
     "euler_to_rotation",
@@ -513,6 +515,35 @@ def axis_angle_to_er(axis: npt.ArrayLike, angle: npt.ArrayLike) -> FloatArray:
     c = np.cos(h)[..., None]
     w, s = np.broadcast_arrays(w, s)
     return np.concatenate([w * s, np.broadcast_to(c, (*w.shape[:-1], 1))], axis=-1)
+
+
+def er_rates(e: npt.ArrayLike, w: npt.ArrayLike) -> FloatArray:
+    """Rates ``e'`` (..., 4) of the Euler-Rodrigues parameters ``e`` of a rotation Θ(e)
+    (3.50) turning at the angular velocity ``w`` (..., 3), given in the axes that Θ maps
+    into (for a SPHERE joint: the second body relative to the first, in the first
+    body's joint frame u v w): Θ' Θ^T = [w]x, so e' = (w, 0) e / 2 (3.57),
+
+        e_v' = (e4 w + w x e_v) / 2,    e4' = -(w . e_v) / 2.
+
+    ``e`` must be normalised (|e| = 1); then e . e' = 0.  At e = (0, 0, 0, 1):
+    e' = (w / 2, 0).
+    """
+    e = _vec4(e, "e")
+    w = _vec3(w, "w")
+    ev, e4 = e[..., :3], e[..., 3:]
+    v = 0.5 * (e4 * w + np.cross(w, ev))
+    s = -0.5 * _dot(w, ev)[..., None]
+    return np.concatenate([v, s], axis=-1)
+
+
+def er_angular_velocity(e: npt.ArrayLike, ed: npt.ArrayLike) -> FloatArray:
+    """The angular velocity ``w`` (..., 3) of Euler-Rodrigues parameters ``e`` moving at
+    ``ed`` (the inverse of :func:`er_rates`): w = 2 (e4 e_v' - e4' e_v + e_v x e_v')."""
+    e = _vec4(e, "e")
+    ed = _vec4(ed, "ed")
+    ev, e4 = e[..., :3], e[..., 3:]
+    dv, d4 = ed[..., :3], ed[..., 3:]
+    return 2.0 * (e4 * dv - d4 * ev + np.cross(ev, dv))
 
 
 # --------------------------------------------------------------------------- quaternions

@@ -41,6 +41,7 @@ from openimp.dynamics.integration import Drive, Held, Run, column, motions, why
 from openimp.dynamics.outputs import OutputBuffer, Progress, output_times, positive
 from openimp.dynamics.stepping import RunEnd
 from openimp.errors import AnalysisError, InputError
+from openimp.kinematics.ballrates import ball_columns, ball_rates
 from openimp.kinematics.track import tracker
 from openimp.results import CoordinateSwitch, EnergyAudit, IntegrationStats, Trajectory
 from openimp.system import State, System, make_state
@@ -165,7 +166,10 @@ def simulate(
     radians for angles; the others from the modeling posture, the loops closed with
     the given ones held) or gives all nq variables; ``rates`` maps coordinates to
     initial rates: they become free coordinates, the other free coordinates start at
-    rest (IMP's DATA IC).  ``state``: a :class:`~openimp.system.State` (internal
+    rest (IMP's DATA IC); ``"joint.w": (wx, wy, wz)`` gives a ball joint's (SPHERE,
+    OPEN) angular velocity, its second body's relative to its first in the first
+    body's joint frame u v w (:func:`~openimp.kinematics.ballrates.ball_rates`: three
+    of its parameters' rates).  ``state``: a :class:`~openimp.system.State` (internal
     units) to start from instead, its joint variables and rates.  ``specified``
     names the specified coordinates (SGCs): held at their start position unless
     ``motion`` drives them; ``motion`` maps SGCs to motions of time
@@ -206,13 +210,18 @@ def simulate(
                        tol, pivot_tol, mass_tol, max_steps, events)
     if stream is None and not keep:
         raise InputError("keep=False needs stream= (the outputs must go somewhere)")
-    S, q_given, qd_given = _initial(system, q, rates, state, float(tout[0]))
+    S, q_given, qd_given, balls = _initial(system, q, rates, state, float(tout[0]))
     drive = _drive(system, motion, specified, S, q_given)
     if drive.timed:  # the motions over the run checked before it starts
         drive.at(tout, np.zeros((tout.size, drive.cols.size, 3)))
     r = Run(system, method, drive, opts, opts.events)
     try:
         r.start(S, float(tout[0]), q_given, qd_given, None if state is None else state.qd)
+        for joint, (cols, e) in balls.items():
+            if not np.allclose(S.q[cols], e, rtol=0.0, atol=1e-9):
+                raise InputError(f"rates: the angular velocity of {joint!r} was given at a "
+                                 "posture that closing the loops changes: give the posture of "
+                                 "the ball in q (or the rates of its parameters)")
         r.names_before = r.fgc_names()
         out = OutputBuffer(system, tout, bool(keep), stream)
         bar = Progress(progress, float(tout[0]), float(tout[-1]))
@@ -265,9 +274,11 @@ def _integrate(r: Run, out: OutputBuffer, bar: Progress, max_steps: int) -> str:
 
 
 def _initial(system: System, q: Any, rates: Any, state: State | None, t0: float
-             ) -> tuple[State, dict[int, float], dict[int, float]]:
+             ) -> tuple[State, dict[int, float], dict[int, float],
+                        dict[str, tuple[np.ndarray, np.ndarray]]]:
     """The start state (internal units), the positions given (held while the loops are
-    closed) and the rates given, by column."""
+    closed) and the rates given, by column; the balls given an angular velocity, with
+    their columns and parameters the rates were made at (:func:`_spin_rates`)."""
     if state is not None:
         if q is not None or rates is not None:
             raise InputError("give either state= or q/rates, not both")
@@ -276,9 +287,13 @@ def _initial(system: System, q: Any, rates: Any, state: State | None, t0: float
                              "variables), e.g. from openimp.system.make_state")
         if not (np.all(np.isfinite(state.q)) and np.all(np.isfinite(state.qd))):
             raise InputError("state: its joint variables and rates must be finite")
-        return make_state(system, state.q, t0), {}, {}
+        return make_state(system, state.q, t0), {}, {}, {}
     q_given = _mapping(system, q, "q") if not _is_array(q) else {}
-    return make_state(system, _start_q(system, q), t0), q_given, _mapping(system, rates, "rates")
+    rates, spins = _split_spins(system, rates)
+    qd_given = _mapping(system, rates, "rates")
+    S = make_state(system, _start_q(system, q), t0)
+    balls = _spin_rates(system, spins, S.q, q_given, qd_given)
+    return S, q_given, qd_given, balls
 
 
 def _drive(system: System, motion: Any, specified: Any, S: State,
@@ -319,6 +334,50 @@ def _mapping(system: System, values: Any, what: str) -> dict[int, float]:
         if not math.isfinite(x):
             raise InputError(f"{what}: the value of {key!r} must be finite, got {v!r}")
         out[c] = x / system.var_scale[c]
+    return out
+
+
+def _split_spins(system: System, rates: Any) -> tuple[Any, dict[str, Any]]:
+    """The rates mapping without its angular velocities of ball joints (keys
+    ``"joint.w"`` of a SPHERE or OPEN joint), and those as {joint: w}."""
+    if not isinstance(rates, Mapping):
+        return rates, {}
+    plain: dict[Any, Any] = {}
+    spins: dict[str, Any] = {}
+    for key, v in rates.items():
+        if isinstance(key, str) and key.endswith(".w") and key not in system.var_names \
+                and key[:-2] in system.joints:
+            spins[key[:-2]] = v
+        else:
+            plain[key] = v
+    return plain, spins
+
+
+def _spin_rates(system: System, spins: dict[str, Any], q: np.ndarray,
+                q_given: dict[int, float], qd_given: dict[int, float]
+                ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """The angular velocities of balls as the rates of three of their Euler-Rodrigues
+    parameters (the fourth, the largest in size, left dependent: the best pivot of
+    its normalisation), into qd_given (internal units), at the start posture q
+    (internal) with q_given; returns {joint: (its columns, its e there)} to check."""
+    out: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    if not spins:
+        return out
+    qs = q.copy()
+    for c, v in q_given.items():
+        qs[c] = v
+    for joint, wv in spins.items():
+        cols = ball_columns(system, joint)
+        ed = ball_rates(system, joint, wv, system.to_model(qs))
+        dep = int(np.argmax(np.abs(qs[cols])))
+        for k, c in enumerate(cols):
+            if k == dep:
+                continue
+            if int(c) in qd_given:
+                raise InputError(f"rates: {system.var_names[c]} is given beside the angular "
+                                 f"velocity of {joint!r}")
+            qd_given[int(c)] = ed[system.var_names[c]] / system.var_scale[c]
+        out[joint] = (cols, qs[cols].copy())
     return out
 
 

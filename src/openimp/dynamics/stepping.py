@@ -50,6 +50,13 @@ from typing import NamedTuple
 import numpy as np
 
 from openimp._jit import njit, packed_views
+from openimp.dynamics.ballstep import (
+    ball_blocks,
+    ball_marks,
+    ball_moments,
+    from_local,
+    to_local,
+)
 from openimp.dynamics.eom import eom_loads, eom_rates
 from openimp.dynamics.hooks import Hook, call_hook
 from openimp.dynamics.linear import (
@@ -249,6 +256,8 @@ WORK_FIELDS: tuple[Field, ...] = (
     Field("iS", "i", ("nq",), "places of the SGCs in it"),
     Field("gF", "f", (3, "nq"), "forcing terms of the FGC rows"),
     Field("Minv", "f", ("nq", "nq"), "M_FF^-1"),
+    Field("ball", "i", ("nq", 4), "the ball joints the book's step takes in local rotation "
+          "coordinates (ballstep.ball_blocks; -1 in the row after the last, from the start)"),
     Field("wq", "f", (3,), "powers at the middle (book) or over the Gauss nodes"),
     Field("fscale", "f", (1,), "largest generalized force met (force error percent)"),
     # the step just taken, for the outputs inside it
@@ -326,7 +335,9 @@ def make_work(nq: int, ns: int, nb: int, nlaw: int) -> Work:
     lin = make_linearized(nq, nb, max(nlaw, 1))
     lwork = make_lin_work(nq, nb)
     sizes = {"nq": nq, "ns": ns, "nstage": NSTAGE, "n": 2 * nq + 3, "nlaw": max(nlaw, 1)}
-    return Work(allocate(WORK_FIELDS, sizes), lin, lwork)
+    W = Work(allocate(WORK_FIELDS, sizes), lin, lwork)
+    work_arrays(W).ball[:] = -1  # no ball stepped locally before the first linearization
+    return W
 
 
 # ------------------------------------------------------------------ the stage
@@ -802,6 +813,7 @@ def book_linearize(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
             return SINGULAR_MASS
         for i in range(nF):
             w.Minv[i, j] = w.aF[i]
+    ball_blocks(KP, w.role, w.fcols, nF, w.ball)
     w.have_lin[0] = True
     return OK
 
@@ -863,6 +875,9 @@ def book_predict(W: Work) -> int:
         A[nF + i, 2 * nF] = w.v0[i] * tau
     A[2 * nF + 1, 2 * nF] = tau
     A[2 * nF + 2, 2 * nF + 1] = tau
+    balls = w.ball[0, 0] >= 0
+    if balls:  # ball joints in their rotation vectors (the e of a steady spin are not linear)
+        to_local(A, nF, tau, w.ball, w.fcols, w.q0, w.v0, w.X3)
     expm(A, n, w.Eb, w.X2, w.X3)
     E = w.Eb
     big = 0.0
@@ -877,9 +892,16 @@ def book_predict(W: Work) -> int:
         acc = 0.0
         for j in range(nF):
             acc += (A[i, j] * w.X1[0, j] + A[i, nF + j] * w.X1[1, j]) / tau
-        for m in range(nF):
-            acc += Minv[i, m] * (g[0, m] + g[1, m] * tau + 0.5 * g[2, m] * tau * tau)
+        if balls:  # the forcing as the clock columns of A hold it
+            acc += (A[i, 2 * nF] + A[i, 2 * nF + 1] * tau + 0.5 * A[i, 2 * nF + 2] * tau * tau) \
+                / tau
+        else:
+            for m in range(nF):
+                acc += Minv[i, m] * (g[0, m] + g[1, m] * tau + 0.5 * g[2, m] * tau * tau)
         w.ap[i] = acc
+    if balls:
+        from_local(nF, w.ball, w.fcols, w.q0, w.v0, w.X1[1], w.X1[0], w.ap,
+                   (w.xs, w.vs, w.ap), True, w.X3)
     if big > w.xmax[0]:
         return TOO_LARGE
     return OK
@@ -903,6 +925,9 @@ def book_mid(W: Work) -> None:
     for i in range(nF):
         w.vs[i] = w.v0[i] + w.Eb[i, 2 * nF]
         w.xs[i] = w.x0[i] + w.Eb[nF + i, 2 * nF]
+    if w.ball[0, 0] >= 0:
+        from_local(nF, w.ball, w.fcols, w.q0, w.v0, w.Eb[nF:2 * nF, 2 * nF],
+                   w.Eb[:nF, 2 * nF], w.ap, (w.xs, w.vs, w.ap), False, w.X3)
 
 
 @njit(nrt=False)
@@ -931,16 +956,35 @@ def book_finish(S: tuple, W: Work) -> int:
     M = W.lin.M
     err = 0.0
     fmax = 0.0
+    # V[0] the force error, V[1] the inertia force, FGC order; of a ball, both in its
+    # rotation vector (its moments), without the velocity products of e (V[3])
+    V = w.X2
+    balls = w.ball[0, 0] >= 0
+    for i in range(nF):
+        V[2, i] = 0.0
+        V[3, i] = 0.0
+        w.keep[i] = False
+    if balls:
+        from_local(nF, w.ball, w.fcols, w.q0, w.v0, w.X1[1], w.X1[0], V[2],
+                   (V[4], V[5], V[3]), True, w.X3)
+        ball_marks(w.ball, w.keep)
     for i in range(nF):
         e = 0.0
         f = 0.0
         for j in range(nF):
             mij = M[w.iF[i], w.iF[j]]
             e += mij * (w.aF[j] - w.ap[j])
-            f += mij * w.aF[j]
+            f += mij * (w.aF[j] - V[3, j])
+        V[0, i] = e
+        V[1, i] = f
+    if balls:
+        ball_moments(nF, w.ball, w.fcols, w.q0, w.X1[1], V, w.X3)
+    for i in range(nF):
         gs = w.gscale[w.fcols[i]]
-        err = max(err, abs(e) * gs)
-        fmax = max(fmax, abs(f) * gs, abs(W.lin.F[w.iF[i]]) * gs)
+        err = max(err, abs(V[0, i]) * gs)
+        fmax = max(fmax, abs(V[1, i]) * gs)
+        if not w.keep[i]:
+            fmax = max(fmax, abs(W.lin.F[w.iF[i]]) * gs)
     w.fscale[0] = max(w.fscale[0], fmax, w.lscale[0])
     tol = w.fabs[0]
     pct = 0.01 * w.fpct[0] * w.fscale[0]

@@ -1,0 +1,343 @@
+"""Accuracy of the time step (book ch 14) on ball joints: the heavy top.
+
+A symmetric top of mass M with its centre at L along its axis from a fixed point,
+spinning at SPIN about its axis tilted by BETA from the vertical, released with no
+other motion.  Built twice through the Python API: on a SPHERE joint (Euler-Rodrigues
+parameters) and on three revolutes (z, x, the top's axis: Euler angles).  The
+reference is the rigid body's own ODE in plain numpy (Euler's equations about the
+fixed point in body axes, the attitude as a unit quaternion), solve_ivp at 1e-12.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+import openimp
+from openimp.errors import InputError
+
+M, L, G = 1.0, 0.1, 9.81
+I1, I3 = 2.5e-3, 4.0e-3  # about the centre: transverse, axial
+BETA = math.radians(30.0)
+SPIN = 50.0
+AX = np.array([0.0, math.sin(BETA), math.cos(BETA)])
+
+
+def rot(e: np.ndarray) -> np.ndarray:
+    """Theta(e) of book (3.50), e = (e1, e2, e3, e4), e4 the scalar part."""
+    e1, e2, e3, e4 = e
+    return np.array([
+        [e1 * e1 - e2 * e2 - e3 * e3 + e4 * e4, 2 * (e1 * e2 - e3 * e4), 2 * (e1 * e3 + e2 * e4)],
+        [2 * (e1 * e2 + e3 * e4), -e1 * e1 + e2 * e2 - e3 * e3 + e4 * e4, 2 * (e2 * e3 - e1 * e4)],
+        [2 * (e1 * e3 - e2 * e4), 2 * (e2 * e3 + e1 * e4), -e1 * e1 - e2 * e2 + e3 * e3 + e4 * e4],
+    ])
+
+
+def top(kind: str, gravity: float = G) -> openimp.System:
+    m = openimp.Model("top-" + kind)
+    if kind == "sphere":
+        m.add_joint("sphere", "S", "BASE", "TOP", origin=(0, 0, 0))
+    else:  # gimbal: R1 about z, R2 about x, R3 about the top's axis
+        m.add_joint("revolute", "R1", "BASE", "B1", origin=(0, 0, 0), axis=(0, 0, 1))
+        m.add_joint("revolute", "R2", "B1", "B2", origin=(0, 0, 0), axis=(1, 0, 0))
+        m.add_joint("revolute", "R3", "B2", "TOP", origin=(0, 0, 0), axis=AX)
+    Ic = I1 * np.eye(3) + (I3 - I1) * np.outer(AX, AX)
+    assert m.add_mass("TOP", M, center=L * AX, inertia=Ic) == []
+    m.add_point("TIP", "TOP", tuple(L * AX))
+    m.set_gravity((0, 0, -gravity))
+    return openimp.compile(m)
+
+
+def top_reference(t: np.ndarray, gravity: float = G) -> np.ndarray:
+    """The top's axis (len(t), 3) in global axes: Euler's equations about the fixed point,
+    body frame = global at the modeling posture, attitude Theta(e) from e = (0, 0, 0, 1)."""
+    Ib = (I1 * np.eye(3) + (I3 - I1) * np.outer(AX, AX)
+          + M * L * L * (np.eye(3) - np.outer(AX, AX)))
+    Ibi = np.linalg.inv(Ib)
+    rc = L * AX
+
+    def f(_: float, y: np.ndarray) -> np.ndarray:
+        e, w = y[:4], y[4:]
+        R = rot(e / np.linalg.norm(e))
+        tau = np.cross(rc, R.T @ np.array([0.0, 0.0, -M * gravity]))
+        wd = Ibi @ (tau - np.cross(w, Ib @ w))
+        ev, e4 = e[:3], e[3]
+        # e' = e (x) (w_body, 0) / 2
+        return np.concatenate([0.5 * (e4 * w + np.cross(ev, w)), [-0.5 * ev @ w], wd])
+
+    # the spin axis is the top's: its body and space components agree at the start
+    y0 = np.concatenate([[0.0, 0.0, 0.0, 1.0], SPIN * AX])
+    sol = solve_ivp(f, (t[0], t[-1]), y0, t_eval=t, rtol=1e-12, atol=1e-12, method="DOP853")
+    return np.array([rot(e / np.linalg.norm(e)) @ AX for e in sol.y[:4].T])
+
+
+def axis_error(tr: openimp.Trajectory, ref: np.ndarray) -> np.ndarray:
+    p = tr.point("TIP")[:, :3] / L
+    return np.linalg.norm(p - ref[:len(p)], axis=1)
+
+
+def test_ball_rates_closed_form():
+    """ball_rates: e' of an angular velocity w (the second body's, in the first body's
+    joint frame) satisfies Theta' Theta^T = [w]x, checked by central differences of
+    (3.50) in plain numpy, and e . e' = 0; simulate's "S.w" gives the same rates."""
+    s = top("sphere")
+    rng = np.random.default_rng(3)
+    for _ in range(5):
+        e = rng.normal(size=4)
+        e /= np.linalg.norm(e)
+        w = rng.normal(size=3) * 10.0
+        ed = np.array(list(openimp.ball_rates(s, "S", w, q=e).values()))
+        assert abs(e @ ed) < 1e-14
+        h = 1e-6
+        Rd = (rot(e + h * ed) - rot(e - h * ed)) / (2 * h)
+        W = Rd @ rot(e).T
+        assert np.allclose([W[2, 1], W[0, 2], W[1, 0]], w, rtol=0, atol=1e-8 * np.abs(w).max())
+        assert np.allclose(W, -W.T, atol=1e-8 * np.abs(w).max())
+    assert openimp.ball_rates(s, "S", (2.0, 4.0, 6.0)) == {
+        "S.e1": 1.0, "S.e2": 2.0, "S.e3": 3.0, "S.e4": -0.0}
+    with pytest.raises(InputError, match="no Euler-Rodrigues"):
+        openimp.ball_rates(top("rev"), "R1", (0, 0, 1))
+    with pytest.raises(InputError, match="three finite numbers"):
+        openimp.ball_rates(s, "S", (0, 1))
+
+
+@pytest.mark.parametrize("phase", [0.0, 2.0])
+def test_spin_rates_start(phase):
+    """simulate(rates={"S.w": w}) starts the ball at that angular velocity: the top's
+    angular velocity at t = 0 (openimp's body rates) is w, at the drawn posture and
+    turned by ``phase`` about its own axis (where e' is not w / 2)."""
+    s = top("sphere", gravity=0.0)
+    e0 = np.concatenate([math.sin(phase / 2) * AX, [math.cos(phase / 2)]])
+    q0 = dict(zip(("S.e1", "S.e2", "S.e3", "S.e4"), e0))
+    tr = openimp.simulate(s, times=[0.0, 0.01], q=q0, rates={"S.w": SPIN * AX},
+                          method="book", progress=False)
+    assert tr.message == ""
+    assert np.allclose(tr.angular_velocity("TOP")[0], SPIN * AX, rtol=0, atol=1e-12)
+    # torque-free steady spin: the same angular velocity at the end
+    assert np.allclose(tr.angular_velocity("TOP")[-1], SPIN * AX, rtol=0, atol=1e-6)
+
+
+def _run(kind: str, method: str, t: np.ndarray, **kw) -> tuple[np.ndarray, openimp.Trajectory]:
+    s = top(kind)
+    rates = {"S.w": SPIN * AX} if kind == "sphere" else {"R3": SPIN}
+    tr = openimp.simulate(s, times=t, rates=rates, method=method, progress=False, **kw)
+    assert tr.message == ""
+    return axis_error(tr, top_reference(t)), tr
+
+
+#: measured over 0.3 s, the top's axis against the reference (force_tol percent: error,
+#: steps): on three revolutes 1 %: 8.4e-5 (76 steps); on the SPHERE before the ball's
+#: step in its rotation vector 1 %: 1.6e-2 (247), 0.01 %: 2.8e-3 (686); after it
+#: 1 %: 8.2e-3 (68), 0.1 %: 1.4e-3 (170), 0.01 %: 1.3e-4 (533), 0.001 %: 1.35e-5 (1691)
+
+
+@pytest.mark.xfail(strict=True, reason="issue 24 item 7a not met: at the default force "
+                   "tolerance the SPHERE top is 98x the three-revolute top's error (8.2e-3 "
+                   "against 8.4e-5 after 0.3 s); the Euler angles make the symmetric top's "
+                   "spin a cyclic coordinate, no chart of the ball does")
+def test_book_step_ball_as_accurate_as_revolutes():
+    """The book's step at its default force tolerance on the top: on a SPHERE within 10x
+    the error of the same top on three revolutes."""
+    t = np.linspace(0.0, 0.3, 4)
+    err_s, _ = _run("sphere", "book", t)
+    err_r, _ = _run("rev", "book", t)
+    assert err_r[-1] < 2e-4
+    assert err_s[-1] < 10.0 * err_r[-1]
+
+
+def test_book_step_ball_converges_with_force_tolerance():
+    """The ball's step in its rotation vector: the top's error after 0.3 s falls in
+    proportion to the force tolerance's percentage (x61 from 1 % to 0.01 %, measured)
+    and at 0.01 % is within 2x of the three-revolute top at the default 1 % (1.3e-4
+    against 8.4e-5); before, 0.01 % left 2.8e-3."""
+    t = np.linspace(0.0, 0.3, 4)
+    err_1, _ = _run("sphere", "book", t)
+    err_3, _ = _run("sphere", "book", t, force_tol=(0.1, 0.01))
+    err_r, _ = _run("rev", "book", t)
+    assert err_1[-1] < 1e-2
+    assert err_3[-1] < err_1[-1] / 30.0
+    assert err_3[-1] < 2.0 * err_r[-1]
+
+
+# ----------------------------------------------------------------- the ball's chart
+def _qmul(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Product of Euler-Rodrigues parameters (vector part first): Theta(p q) =
+    Theta(p) Theta(q)."""
+    return np.concatenate([p[3] * q[:3] + q[3] * p[:3] + np.cross(p[:3], q[:3]),
+                           [p[3] * q[3] - p[:3] @ q[:3]]])
+
+
+def _expq(th: np.ndarray) -> np.ndarray:
+    a = np.linalg.norm(th)
+    if a == 0.0:
+        return np.array([0.0, 0.0, 0.0, 1.0])
+    return np.concatenate([math.sin(a / 2) * th / a, [math.cos(a / 2)]])
+
+
+def test_rotation_functions_series_and_closed_form():
+    """S(p) = sin(phi/2)/phi and its p-derivatives: the series below |phi| = 0.5 and the
+    closed form above against central differences of sin(sqrt(p)/2)/sqrt(p)."""
+    from openimp.dynamics.ballstep import SERIES, rotation_functions
+
+    def S(p):
+        return math.sin(math.sqrt(p) / 2) / math.sqrt(p)
+
+    out = np.zeros(3)
+    for phi in (0.05, 0.3, SERIES * 0.999, SERIES * 1.001, 1.0, 2.5):
+        p = phi * phi
+        rotation_functions(p, out)
+        h, k = 1e-5, min(1e-3, 0.5 * p)
+        assert out[0] == pytest.approx(S(p), rel=1e-14)
+        assert out[1] == pytest.approx((S(p + h) - S(p - h)) / (2 * h), rel=1e-8)
+        assert out[2] == pytest.approx((S(p + k) - 2 * S(p) + S(p - k)) / k ** 2, rel=1e-4)
+
+
+def test_from_local_against_differences():
+    """from_local: the free parameters e_F of e0 (x) q(theta), their rates and
+    accelerations along theta(t) = x + (theta'* + dv) t + acc t^2 / 2 (theta'* from the
+    start rates v0 through de_F/dtheta at 0), against the product written here and
+    central differences in t."""
+    from openimp.dynamics.ballstep import from_local
+
+    rng = np.random.default_rng(7)
+    e0 = rng.normal(size=4)
+    e0 /= np.linalg.norm(e0)
+    F = [i for i in range(4) if i != int(np.argmax(np.abs(e0)))]  # the dependent: largest
+    blk = np.full((4, 4), -1, np.int64)
+    blk[0] = (0, 0, 1, 2)
+    fcols = np.array([*F, 9], np.int64)
+
+    def eF(th):
+        return _qmul(e0, _expq(th))[F]
+
+    h = 1e-6
+    J0 = np.column_stack([(eF(h * d) - eF(-h * d)) / (2 * h) for d in np.eye(3)])
+    v0 = rng.normal(size=3)
+    x, dv, acc = rng.normal(size=3) * 0.7, rng.normal(size=3), rng.normal(size=3)
+    tds = np.linalg.solve(J0, v0) + dv
+    xs, vs, ap = np.zeros(3), np.zeros(3), np.zeros(3)
+    X = np.zeros((11, 11))
+    from_local(3, blk, fcols, e0, v0, x, dv, acc, (xs, vs, ap), True, X)
+
+    def path(t):
+        return eF(x + tds * t + 0.5 * acc * t * t)
+
+    k = 1e-4
+    assert np.allclose(xs, path(0.0), atol=1e-15)
+    assert np.allclose(vs, (path(k) - path(-k)) / (2 * k), atol=1e-8)
+    assert np.allclose(ap, (path(k) - 2 * path(0.0) + path(-k)) / k ** 2, atol=1e-5)
+
+
+def test_to_local_is_the_chain_rule():
+    """to_local: the step's linear model in e (v' = f0 + P_v (v - v0) + P_x x) rewritten
+    in the ball's rotation vector equals the linearization at (0, theta'*) of
+    theta'' = J(theta)^-1 (f(e_F(theta), J theta') - e_F''(theta)[theta', theta']),
+    formed here by central differences of the product e0 (x) q(theta)."""
+    from openimp.dynamics.ballstep import to_local
+
+    rng = np.random.default_rng(11)
+    e0 = rng.normal(size=4)
+    e0 /= np.linalg.norm(e0)
+    F = [i for i in range(4) if i != int(np.argmax(np.abs(e0)))]
+    blk = np.full((4, 4), -1, np.int64)
+    blk[0] = (0, 0, 1, 2)
+    fcols = np.array([*F, 9], np.int64)
+    Pv, Px = rng.normal(size=(3, 3)), rng.normal(size=(3, 3))
+    f0, v0 = rng.normal(size=3), rng.normal(size=3)
+    tau = 0.37
+    n = 2 * 3 + 3
+    A = np.zeros((11, 11))
+    A[:3, :3], A[:3, 3:6], A[:3, 6] = Pv * tau, Px * tau, f0 * tau
+    A[3:6, :3] = np.eye(3) * tau
+    A[3:6, 6] = v0 * tau
+    A[7, 6] = A[8, 7] = tau
+    X = np.zeros((11, 11))
+    to_local(A, 3, tau, blk, fcols, e0, v0, X)
+
+    def eF(th):
+        return _qmul(e0, _expq(th))[F]
+
+    h = 1e-5
+
+    def jac(th):
+        return np.column_stack([(eF(th + h * d) - eF(th - h * d)) / (2 * h) for d in np.eye(3)])
+
+    def phi(th, td):
+        s = 1e-4
+        e2 = (eF(th + td * s) - 2 * eF(th) + eF(th - td * s)) / s ** 2
+        acc = f0 + Pv @ (jac(th) @ td - v0) + Px @ (eF(th) - eF(np.zeros(3)))
+        return np.linalg.solve(jac(th), acc - e2)
+
+    td0 = np.linalg.solve(jac(np.zeros(3)), v0)
+    z = np.zeros(3)
+    d = 1e-3
+    Av = np.column_stack([(phi(z, td0 + d * u) - phi(z, td0 - d * u)) / (2 * d) for u in np.eye(3)])
+    Ax = np.column_stack([(phi(d * u, td0) - phi(-d * u, td0)) / (2 * d) for u in np.eye(3)])
+    scale = np.abs(np.concatenate([Pv.ravel(), Px.ravel(), f0])).max() * 10
+    assert np.allclose(A[:3, :3] / tau, Av, atol=2e-4 * scale)
+    assert np.allclose(A[:3, 3:6] / tau, Ax, atol=2e-4 * scale)
+    assert np.allclose(A[:3, 6] / tau, phi(z, td0), atol=2e-4 * scale)
+    assert np.allclose(A[3:6, 6] / tau, td0, atol=1e-8)
+    assert np.allclose(A[3:6, :3] / tau, np.eye(3))
+    assert n == 9
+
+
+# ----------------------------------------------------------------- IFToMM A02
+def a02(n: int) -> openimp.System:
+    """IFToMM benchmark A02: n parallelogram four-bars of uniform 1 m, 1 kg bars, gravity
+    9.81 along -y.  Cranks C0 .. Cn pivoted on BASE at (i, 0) (P0 .. Pn), vertical at the
+    start; coupler Ki from the tip of C(i-1) (joint Ai) to the tip of Ci (joint Bi)."""
+    m = openimp.Model(f"a02-{n}")
+    bar = 1.0 / 12.0  # m l^2 / 12 about the centre, across the bar
+    for i in range(n + 1):
+        m.add_joint("revolute", f"P{i}", "BASE", f"C{i}", origin=(i, 0, 0))
+        assert m.add_mass(f"C{i}", 1.0, center=(i, 0.5, 0),
+                          inertia=np.diag([bar, 0.0, bar])) == []
+    for i in range(1, n + 1):
+        m.add_joint("revolute", f"A{i}", f"C{i - 1}", f"K{i}", origin=(i - 1, 1, 0))
+        m.add_joint("revolute", f"B{i}", f"K{i}", f"C{i}", origin=(i, 1, 0))
+        assert m.add_mass(f"K{i}", 1.0, center=(i - 0.5, 1, 0),
+                          inertia=np.diag([0.0, bar, bar])) == []
+    m.add_point("TIP", "C0", (0, 1, 0))
+    m.set_gravity((0, -G, 0))
+    return openimp.compile(m)
+
+
+def a02_reference(n: int, t: np.ndarray) -> np.ndarray:
+    """Every crank's angle theta(t) from +x (the motion is one freedom: the cranks turn
+    together, the couplers translate with their tips' velocity).  Cranks: I = 1/3 about
+    their pivot, centre at sin(theta)/2; couplers: speed |theta'| (the tips' on a unit
+    circle), centre at sin(theta).  T = m_eff theta'^2 / 2 with m_eff = (n+1)/3 + n,
+    V = g k sin(theta) with k = (n+1)/2 + n, so m_eff theta'' = -g k cos(theta).  Start:
+    theta = pi/2, the first tip moving at +1 m/s along x: theta' = -1."""
+    meff = (n + 1) / 3.0 + n
+    k = (n + 1) / 2.0 + n
+    sol = solve_ivp(lambda _, y: [y[1], -G * k * math.cos(y[0]) / meff], (t[0], t[-1]),
+                    [math.pi / 2, -1.0], t_eval=t, rtol=1e-12, atol=1e-12, method="DOP853")
+    return sol.y[0]
+
+
+#: measured with rk (N = 4, 20 s): rtol 1e-10 completes (tip within 3.3e-7 m, 1362
+#: steps) but reports no crossing; rtol 1e-12 stops at t = 0.717918 s ("the loops cannot
+#: be closed", 54983 steps, 28593 rejected).  N = 40: rtol 1e-10 stops at t = 2.68712 s.
+@pytest.mark.xfail(strict=True, reason="issue 24 item 8 not done: the time step neither "
+                   "keeps the branch through the change points nor reports the crossings")
+@pytest.mark.parametrize("rtol", [pytest.param(1e-8, marks=pytest.mark.slow), 1e-10,
+                                  pytest.param(1e-12, marks=pytest.mark.slow)])
+def test_a02_through_change_points(rtol):
+    n = 4
+    s = a02(n)
+    t = np.linspace(0.0, 20.0, 201)
+    th = a02_reference(n, t)
+    tr = openimp.simulate(s, times=t, rates={"P0": -1.0}, rtol=rtol, progress=False)
+    assert tr.message == ""
+    tip = tr.point("TIP")[:, :2]
+    assert np.abs(tip - np.stack([np.cos(th), np.sin(th)], 1)).max() < 1e-3
+    cranks = np.array([tr.variable(f"P{i}") for i in range(n + 1)])
+    assert np.ptp(cranks, axis=0).max() < 1e-8
+    # the horizontal postures: theta = k pi, one crossing reported at each
+    crossings = np.flatnonzero(np.diff(np.floor(th / math.pi)) != 0)
+    assert len(tr.singularities) == len(crossings) == 20
