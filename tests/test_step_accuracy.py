@@ -128,7 +128,7 @@ def _run(kind: str, method: str, t: np.ndarray, **kw) -> tuple[np.ndarray, openi
     return axis_error(tr, top_reference(t)), tr
 
 
-#: measured over 0.3 s, the top's axis against the reference (force_tol percent: error,
+#: measured over 0.3 s, the top's axis against the reference (force_error percent: error,
 #: steps): on three revolutes 1 %: 8.4e-5 (76 steps); on the SPHERE before the ball's
 #: step in its rotation vector 1 %: 1.6e-2 (247), 0.01 %: 2.8e-3 (686); after it
 #: 1 %: 8.2e-3 (68), 0.1 %: 1.4e-3 (170), 0.01 %: 1.3e-4 (533), 0.001 %: 1.35e-5 (1691)
@@ -155,7 +155,7 @@ def test_book_step_ball_converges_with_force_tolerance():
     against 8.4e-5); before, 0.01 % left 2.8e-3."""
     t = np.linspace(0.0, 0.3, 4)
     err_1, _ = _run("sphere", "book", t)
-    err_3, _ = _run("sphere", "book", t, force_tol=(0.1, 0.01))
+    err_3, _ = _run("sphere", "book", t, force_error=(0.1, 0.01))
     err_r, _ = _run("rev", "book", t)
     assert err_1[-1] < 1e-2
     assert err_3[-1] < err_1[-1] / 30.0
