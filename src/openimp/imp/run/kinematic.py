@@ -141,6 +141,8 @@ class Motions:
 
 
 def time_only(t: float) -> Callable[[str, str | None, int], float]:
+    """resolve(kind, name, comp) that knows only TIME (``t``): every other
+    quantity is NaN (undefined)."""
     def resolve(kind: str, name: str | None, comp: int) -> float:
         return t if kind == "TIME" else _NAN
 

@@ -49,6 +49,8 @@ def _joint_origin(prep: Prepared, sol: Solution, name: str) -> np.ndarray:
 
 
 def joint_frames(prep: Prepared, sol: Solution, name: str) -> np.ndarray:
+    """The frame (uvw on its first body) of joint ``name`` in global
+    coordinates at each step of ``sol``: (steps, 4, 4)."""
     _, _, L1, _ = prep.built.joints[name]
     T = sol.traj.posture(prep.built.model.joints[name].body1)
     return T @ L1
