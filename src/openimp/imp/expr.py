@@ -40,7 +40,7 @@ from openimp import limits
 from openimp.errors import InputError, OpenIMPError
 from openimp.files import quote, quote_path, read_text
 from openimp.imp.lexer import (
-    _NUMBER_RE,
+    NUMBER_RE,
     Scanner,
     Token,
     keyword_key,
@@ -521,7 +521,7 @@ class FourierTable:
 _TABLE_CACHE: dict[str, tuple[float, FourierTable]] = {}
 #: (path, roots) pairs already checked to lie inside their roots
 _TABLE_ALLOWED: set[tuple[str, tuple[str, ...]]] = set()
-_SIGNED_NUMBER = f"[+-]?{_NUMBER_RE.pattern}"
+_SIGNED_NUMBER = f"[+-]?{NUMBER_RE.pattern}"
 
 
 def load_table(path: str | os.PathLike[str], where: tuple[str, int] | None = None,
@@ -558,8 +558,8 @@ def _parse_table(text: str, p: str) -> FourierTable:
     most = limits.MAX_TABLE_ORDINATES + 2
     for lineno, raw in enumerate(text.split("\n"), start=1):
         for word in raw.replace(",", " ").split():
-            m = _NUMBER_RE.fullmatch(word.lstrip("+-")) if word[:1] in "+-" else \
-                _NUMBER_RE.fullmatch(word)
+            m = NUMBER_RE.fullmatch(word.lstrip("+-")) if word[:1] in "+-" else \
+                NUMBER_RE.fullmatch(word)
             if m is None or not math.isfinite(float(word)):
                 raise InputError(f"TABLE file: {quote(word, 20)} is not a number; the file holds "
                                  "min x, max x and then the ordinates, one number per line",

@@ -27,6 +27,7 @@ from openimp.files import printable, quote
 __all__ = [
     "BLANKS",
     "COLUMNS",
+    "NUMBER_RE",
     "SEPARATORS",
     "Item",
     "Scanner",
@@ -54,7 +55,7 @@ _NUMBER_STOP = SEPARATORS | BLANKS | {")"}
 
 _NAME_RE = re.compile(r"[A-Za-z][A-Za-z0-9_]*")
 # digits with an optional point, or a point and digits; then an optional exponent
-_NUMBER_RE = re.compile(r"(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
+NUMBER_RE = re.compile(r"(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
 
 
 def keyword_key(word: str) -> str:
@@ -320,7 +321,7 @@ class Scanner:
         if m:
             self.pos = m.end()
             return Token("NAME", m.group(), None, pos, m.end(), line, col, space)
-        m = _NUMBER_RE.match(text, pos)
+        m = NUMBER_RE.match(text, pos)
         if m:
             end = m.end()
             junk_end = end

@@ -126,22 +126,22 @@ from openimp.joints.codes import (
 )
 from openimp.joints.curves import ConstArgs, curve_consts
 from openimp.joints.higher import (
-    _bevel_consts,
-    _cam_consts,
-    _extract_bevel,
-    _extract_cam,
-    _extract_gear,
-    _extract_line_curve,
-    _extract_point_curve,
-    _extract_rack,
-    _extract_slot,
-    _extract_sphere_groove,
-    _extract_sphere_plane,
-    _extract_ujoint,
-    _gear_complete,
-    _gear_consts,
-    _rack_consts,
-    _slot_consts,
+    bevel_consts,
+    cam_consts,
+    extract_bevel,
+    extract_cam,
+    extract_gear,
+    extract_line_curve,
+    extract_point_curve,
+    extract_rack,
+    extract_slot,
+    extract_sphere_groove,
+    extract_sphere_plane,
+    extract_ujoint,
+    gear_complete,
+    gear_consts,
+    rack_consts,
+    slot_consts,
 )
 from openimp.joints.lower import closed_phi, extract_lower
 
@@ -283,7 +283,7 @@ register(JointType(
     const_names=("radius1", "radius2", "distance", "cos_pressure", "sin_pressure",
                  "tan_helix", "load_sign", "ratio"),
     const_kinds=("length", "length", "length", "ratio", "ratio", "ratio", "ratio", "ratio"),
-    make_consts=_gear_consts, extract=_extract_gear, complete=_gear_complete,
+    make_consts=gear_consts, extract=extract_gear, complete=gear_complete,
     aliases=("spur_gear", "parallel_gear"),
 ))
 
@@ -297,7 +297,7 @@ register(JointType(
     "pinion centre is on the v axis",
     const_names=("radius", "tan_pressure", "tan_helix", "load_sign"),
     const_kinds=("length", "ratio", "ratio", "ratio"),
-    make_consts=_rack_consts, extract=_extract_rack,
+    make_consts=rack_consts, extract=extract_rack,
     order_note="the first body is the rack", aliases=("rack_pinion", "rack_and_pinion"),
 ))
 register(JointType(
@@ -312,7 +312,7 @@ register(JointType(
     "at phi1 = 0, u and u' lie along t",
     const_names=("kappa", "shaft_angle", "offset1", "offset2", "gamma1", "gamma2"),
     const_kinds=("ratio", "angle", "length", "length", "angle", "angle"),
-    make_consts=_bevel_consts, extract=_extract_bevel, aliases=("bevel_gear",),
+    make_consts=bevel_consts, extract=extract_bevel, aliases=("bevel_gear",),
 ))
 register(JointType(
     "point_curve", POINT_CURVE, ("t", "phi2", "phi3"), ("angle", "angle", "length"),
@@ -323,7 +323,7 @@ register(JointType(
     const_names=("length_unit", "t_start", "t_end", "periodic", "curve"),
     const_kinds=("length",),
     make_consts=lambda name, kw: curve_consts(name, "point_curve", kw),
-    extract=_extract_point_curve, order_note="the first body carries the curve",
+    extract=extract_point_curve, order_note="the first body carries the curve",
     aliases=("point_on_curve", "curve_point"),
 ))
 register(JointType(
@@ -336,7 +336,7 @@ register(JointType(
     const_names=("length_unit", "t_start", "t_end", "periodic", "curve"),
     const_kinds=("length",),
     make_consts=lambda name, kw: curve_consts(name, "line_curve", kw),
-    extract=_extract_line_curve, order_note="the first body carries the curve",
+    extract=extract_line_curve, order_note="the first body carries the curve",
     aliases=("line_on_curve", "tangent_line", "flat_follower"),
 ))
 register(JointType(
@@ -347,7 +347,7 @@ register(JointType(
     "to the u'v'w' origin. phi1 = angle from u to t about w, phi2 = angle from t to u' "
     "about w'",
     const_names=("length_unit", "radius_function"), const_kinds=("length",),
-    make_consts=_cam_consts, extract=_extract_cam, order_note="the first body is the cam",
+    make_consts=cam_consts, extract=extract_cam, order_note="the first body is the cam",
 ))
 register(JointType(
     "slot", SLOT, ("u", "phi2"), ("length", "angle"),
@@ -356,7 +356,7 @@ register(JointType(
     "over the slot's u range. u = u-coordinate of the u'v'w' origin, phi2 = angle from a "
     "line parallel to u to u' about w'",
     const_names=("length_unit", "u_start", "u_end", "centreline"), const_kinds=("length",),
-    make_consts=_slot_consts, extract=_extract_slot,
+    make_consts=slot_consts, extract=extract_slot,
     order_note="the first body is the slotted link",
 ))
 register(JointType(
@@ -364,7 +364,7 @@ register(JointType(
     "universal (Hooke) joint, IMP's UJOINT: common origin at the centre of the cross; w on "
     "the first body's pin, w' on the second's, perpendicular; t = w x w'. phi1 = angle from "
     "u to t about w, phi2 = angle from t to u' about w'. Phi = Rz(phi1) Rx(90 deg) Rz(phi2)",
-    make_consts=_no_consts, extract=_extract_ujoint,
+    make_consts=_no_consts, extract=extract_ujoint,
     aliases=("universal", "hooke", "cardan"),
 ))
 register(JointType(
@@ -375,7 +375,7 @@ register(JointType(
     "from the plane toward the sphere (the uv plane is the plane of the sphere centre). "
     "x, y = centre in uvw; e1..e4 = Euler-Rodrigues parameters of u'v'w' in uvw. "
     "Phi = [[Theta(e), (x, y, 0)], [0, 1]]",
-    er_groups=(2,), make_consts=_no_consts, extract=_extract_sphere_plane,
+    er_groups=(2,), make_consts=_no_consts, extract=extract_sphere_plane,
     order_note="the first body carries the plane", aliases=("ball_plane",),
 ))
 register(JointType(
@@ -384,7 +384,7 @@ register(JointType(
     "Both frames have their origin at the sphere centre at the modeling posture; u along "
     "the groove (the line of sphere centres). s = centre along u; e1..e4 = Euler-Rodrigues "
     "parameters of u'v'w' in uvw. Phi = [[Theta(e), (s, 0, 0)], [0, 1]]",
-    er_groups=(1,), make_consts=_no_consts, extract=_extract_sphere_groove,
+    er_groups=(1,), make_consts=_no_consts, extract=extract_sphere_groove,
     order_note="the first body carries the groove", aliases=("ball_groove",),
 ))
 

@@ -416,7 +416,9 @@ def higher_calc(code: int, q: np.ndarray, c: np.ndarray, s: float, Phi: np.ndarr
 # =============================================================================
 # Constants and extraction (Python side)
 # =============================================================================
-def _extract_point_curve(Phi: np.ndarray, c: np.ndarray) -> np.ndarray:
+def extract_point_curve(Phi: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """(t, phi2, phi3) of a point_curve joint from its measured ``Phi`` (4 x 4)
+    and constants ``c``; the u'v'w' origin must lie on the curve."""
     x, y = float(Phi[0, 3]), float(Phi[1, 3])
     t, dist = curve_parameter(c, x, y)
     if dist > 1e-8:
@@ -431,7 +433,9 @@ def _extract_point_curve(Phi: np.ndarray, c: np.ndarray) -> np.ndarray:
     return np.array([t, angle_of(Phi), Phi[2, 3]])
 
 
-def _extract_line_curve(Phi: np.ndarray, c: np.ndarray) -> np.ndarray:
+def extract_line_curve(Phi: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """(t, phi2, phi3) of a line_curve joint from its measured ``Phi`` (4 x 4)
+    and constants ``c``: t where the curve's tangent lies along +u'."""
     x, y = float(Phi[0, 3]), float(Phi[1, 3])
     th = angle_of(Phi)
     ct, st = math.cos(th), math.sin(th)
@@ -493,7 +497,9 @@ def _gear_radii(ratio: float, D: float) -> tuple[float, float]:
     return abs(ratio) * rp, -rp
 
 
-def _gear_consts(name: str, kw: dict[str, Any]) -> np.ndarray:
+def gear_consts(name: str, kw: dict[str, Any]) -> np.ndarray:
+    """Constants of gear joint ``name`` from its keywords ``kw``: (radius1, radius2,
+    distance, cos_pressure, sin_pressure, tan_helix, load_sign, ratio)."""
     args = ConstArgs(name, "gear", kw, ("radius1", "radius2", "ratio", "distance",
                                     "pressure_angle", "helix_angle", "load_sign"))
     if args.has("radius1") or args.has("radius2"):
@@ -553,7 +559,7 @@ def _check_gear_ratio(args: ConstArgs, ratio: float) -> None:
                        "(limit MAX_GEAR_RATIO)")
 
 
-def _gear_complete(name: str, Phi: np.ndarray, c: np.ndarray) -> None:
+def gear_complete(name: str, Phi: np.ndarray, c: np.ndarray) -> None:
     """Take a gear's centre distance from its frames when it was not given."""
     if not math.isnan(c[2]):
         return
@@ -592,7 +598,9 @@ def _best_turns(base: float, slope: float, target: float, nturns: int = 2000) ->
     return int(k[ok[np.argmin(np.abs(k[ok]))]])
 
 
-def _extract_gear(Phi: np.ndarray, c: np.ndarray) -> np.ndarray:
+def extract_gear(Phi: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """(phi1, phi2, phi3) of a gear joint from its measured ``Phi`` (4 x 4) and
+    constants ``c``; phi1 at the whole turn of t that best matches the turn of u'."""
     x, y = float(Phi[0, 3]), float(Phi[1, 3])
     C = math.hypot(x, y)
     if C < 1e-12:
@@ -604,7 +612,9 @@ def _extract_gear(Phi: np.ndarray, c: np.ndarray) -> np.ndarray:
     return q
 
 
-def _rack_consts(name: str, kw: dict[str, Any]) -> np.ndarray:
+def rack_consts(name: str, kw: dict[str, Any]) -> np.ndarray:
+    """Constants of rack joint ``name`` from its keywords ``kw``: (radius,
+    tan_pressure, tan_helix, load_sign)."""
     args = ConstArgs(name, "rack", kw, ("radius", "pressure_angle", "helix_angle", "load_sign"))
     if not args.has("radius"):
         raise args.err("give radius= (pinion pitch radius: + if the pinion is on the +v side "
@@ -614,12 +624,16 @@ def _rack_consts(name: str, kw: dict[str, Any]) -> np.ndarray:
     return np.array([Rp, math.tan(alpha), math.tan(beta), sg])
 
 
-def _extract_rack(Phi: np.ndarray, c: np.ndarray) -> np.ndarray:
+def extract_rack(Phi: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """(phi1, phi2, phi3) of a rack joint from its measured ``Phi`` (4 x 4) and
+    constants ``c``: the pinion centre in uvw, less the pitch radius R' along v."""
     return np.array([Phi[0, 3], Phi[1, 3] - c[0], Phi[2, 3]])
 
 
 # --- bevel -----------------------------------------------------------------------------
-def _bevel_consts(name: str, kw: dict[str, Any]) -> np.ndarray:
+def bevel_consts(name: str, kw: dict[str, Any]) -> np.ndarray:
+    """Constants of bevel joint ``name`` from its keywords ``kw``: (kappa,
+    shaft_angle, offset1, offset2, gamma1, gamma2)."""
     args = ConstArgs(name, "bevel", kw, ("gamma1", "gamma2", "ratio", "shaft_angle", "radius",
                                      "book_ratio"))
     if args.has("gamma1") or args.has("gamma2"):
@@ -660,7 +674,9 @@ def _bevel_consts(name: str, kw: dict[str, Any]) -> np.ndarray:
     return np.array([kappa, sigma0, d1, d2, g1, g2])
 
 
-def _extract_bevel(Phi: np.ndarray, c: np.ndarray) -> np.ndarray:
+def extract_bevel(Phi: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """(phi1, phi2) of a bevel joint from its measured ``Phi`` (4 x 4) and
+    constants ``c``; phi1 at the whole turn that best matches the turn of u'."""
     st = math.hypot(Phi[0, 2], Phi[1, 2])
     if st < 1e-9:
         raise InputError("w and w' are parallel: the common perpendicular t is undefined")
@@ -672,13 +688,17 @@ def _extract_bevel(Phi: np.ndarray, c: np.ndarray) -> np.ndarray:
 
 
 # --- cam and slot ------------------------------------------------------------------------
-def _cam_consts(name: str, kw: dict[str, Any]) -> np.ndarray:
+def cam_consts(name: str, kw: dict[str, Any]) -> np.ndarray:
+    """Constants of cam joint ``name`` from its keywords ``kw``: (length unit,
+    then the block of the pitch-curve radius r(angle))."""
     args = ConstArgs(name, "cam", kw, ("table", "fourier", "function", "closed", "interpolation"))
     block, _, _ = scalar_function(args, "pitch-curve radius r(angle)", True, (0.0, _TWO_PI))
     return np.array([1.0, *block])
 
 
-def _extract_cam(Phi: np.ndarray, c: np.ndarray) -> np.ndarray:
+def extract_cam(Phi: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """(phi1, phi2) of a cam joint from its measured ``Phi`` (4 x 4) and
+    constants ``c``; the follower origin must lie on the pitch curve."""
     x, y = float(Phi[0, 3]), float(Phi[1, 3])
     r = math.hypot(x, y)
     p1 = math.atan2(y, x)
@@ -695,7 +715,9 @@ def _extract_cam(Phi: np.ndarray, c: np.ndarray) -> np.ndarray:
     return np.array([p1, wrap_angle(angle_of(Phi) - p1)])
 
 
-def _slot_consts(name: str, kw: dict[str, Any]) -> np.ndarray:
+def slot_consts(name: str, kw: dict[str, Any]) -> np.ndarray:
+    """Constants of slot joint ``name`` from its keywords ``kw``: (length unit,
+    u_start, u_end, then the block of the centreline v(u))."""
     args = ConstArgs(name, "slot", kw, ("table", "function", "range"))
     if not args.has("range"):
         raise args.err("give range=(u_start, u_end), the slot's extent along u "
@@ -704,7 +726,9 @@ def _slot_consts(name: str, kw: dict[str, Any]) -> np.ndarray:
     return np.array([1.0, u0, u1, *block])
 
 
-def _extract_slot(Phi: np.ndarray, c: np.ndarray) -> np.ndarray:
+def extract_slot(Phi: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """(u, phi2) of a slot joint from its measured ``Phi`` (4 x 4) and constants
+    ``c``; the follower origin must lie on the centreline, inside the slot's range."""
     u = float(Phi[0, 3])
     L = 1.0 / c[0]
     um = u * L
@@ -726,15 +750,21 @@ def _extract_slot(Phi: np.ndarray, c: np.ndarray) -> np.ndarray:
 
 
 # --- universal joint, sphere-plane, sphere-groove --------------------------------------
-def _extract_ujoint(Phi: np.ndarray, c: np.ndarray) -> np.ndarray:
+def extract_ujoint(Phi: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """(phi1, phi2) of a universal joint from its measured ``Phi`` (4 x 4);
+    ``c`` is unused."""
     if math.hypot(Phi[0, 2], Phi[1, 2]) < 1e-9:
         raise InputError("w and w' are parallel: the common perpendicular t is undefined")
     return np.array([math.atan2(Phi[0, 2], -Phi[1, 2]), math.atan2(Phi[2, 0], Phi[2, 1])])
 
 
-def _extract_sphere_plane(Phi: np.ndarray, c: np.ndarray) -> np.ndarray:
+def extract_sphere_plane(Phi: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """(x, y, e1..e4) of a sphere_plane joint from its measured ``Phi``
+    (4 x 4); ``c`` is unused."""
     return np.concatenate([[Phi[0, 3], Phi[1, 3]], rotation_to_er(Phi)])
 
 
-def _extract_sphere_groove(Phi: np.ndarray, c: np.ndarray) -> np.ndarray:
+def extract_sphere_groove(Phi: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """(s, e1..e4) of a sphere_groove joint from its measured ``Phi``
+    (4 x 4); ``c`` is unused."""
     return np.concatenate([[Phi[0, 3]], rotation_to_er(Phi)])

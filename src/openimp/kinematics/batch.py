@@ -21,7 +21,7 @@ from openimp.kinematics.sweep import (
     Drive,
     Solver,
     SweepOut,
-    _driver_columns,
+    driver_columns,
     failure_message,
     sweep_steps,
 )
@@ -153,7 +153,7 @@ def sweep_batch(
     cols = None
     per_variant = []
     for v, s in enumerate(systems):
-        c, dv = _driver_columns(s, {key: vals[k][v] for k, key in enumerate(drivers)})
+        c, dv = driver_columns(s, {key: vals[k][v] for k, key in enumerate(drivers)})
         cols = c if cols is None else cols
         per_variant.append(dv)
     assert cols is not None

@@ -316,7 +316,7 @@ def sweep_steps(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, drive: t
 # =============================================================================
 # Python side
 # =============================================================================
-def _driver_columns(
+def driver_columns(
     system: System, drivers: Mapping[Any, Sequence[float] | np.ndarray], steps: int | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
     """Columns and (steps x nd) values (internal units) of the drivers.
@@ -467,7 +467,7 @@ def motion_inputs(
             drivers[key], rates[key], accels[key] = p, v, a
     if drivers is None:
         raise InputError("give drivers (joint -> values) or motion= with times=")
-    dcols, dvals = _driver_columns(system, drivers, steps)
+    dcols, dvals = driver_columns(system, drivers, steps)
     nsteps = dvals.shape[0]
     rd = _rate_values(system, dcols, nsteps, rates, "rate")
     ad = _rate_values(system, dcols, nsteps, accels, "acceleration")

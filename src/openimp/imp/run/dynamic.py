@@ -36,9 +36,9 @@ import numpy as np
 from openimp.errors import AnalysisError, InputError
 from openimp.imp.expr import Expression, SimulationStop
 from openimp.imp.jointmap import imp_variables
-from openimp.imp.run.kinematic import Motions, _halted, _time_only
+from openimp.imp.run.kinematic import Motions, record_halt, time_only
 from openimp.imp.run.prepare import Driver, Prepared
-from openimp.imp.run.quantities import _imp_variable
+from openimp.imp.run.quantities import imp_variable
 from openimp.imp.run.solution import Solution
 from openimp.kinematics.track import tracker
 from openimp.results import Trajectory
@@ -69,7 +69,7 @@ class ValueMotion:
 
     def _jet(self, t: float) -> tuple[float, float, float]:
         try:
-            jet = self.values[self.name].derivatives(self.values, _time_only(t))
+            jet = self.values[self.name].derivatives(self.values, time_only(t))
         except SimulationStop:
             return (0.0, 0.0, 0.0)
         out = tuple(float(x) if math.isfinite(x) else math.nan for x in jet)
@@ -120,7 +120,7 @@ def _ic_value(prep: Prepared, x: float | str, kind: str, t0: float, where: Any,
         return math.radians(float(x)) if kind == "angle" else float(x)
     values = prep.spec.state.values
     try:
-        v = float(values[x].evaluate(values, _time_only(t0)))
+        v = float(values[x].evaluate(values, time_only(t0)))
     except SimulationStop:
         v = math.nan
     if not math.isfinite(v):
@@ -234,7 +234,7 @@ def _progress(progress: Callable[[int, int], None] | None, times: np.ndarray
 
 def _imp_coordinate(prep: Prepared, vn: str) -> str:
     """An openimp variable in IMP's words: the joint and the variable number."""
-    _i, idx, _kind = _imp_variable(prep, vn)
+    _i, idx, _kind = imp_variable(prep, vn)
     return f"{vn.split('.', 1)[0]} {idx}"
 
 
@@ -340,7 +340,7 @@ def solve(prep: Prepared, times: np.ndarray, start: np.ndarray | None,
     n = len(times) if pre.halt is None else pre.halt.step
     if n == 0:
         sol = Solution(empty, times[:0])
-        _halted(sol, prep, times, pre)
+        record_halt(sol, prep, times, pre)
         return sol
     out_times = np.asarray(times[:n], dtype=float)
     # a single output (DATA TIME final 0): the start, from a run of one print step, at
@@ -370,5 +370,5 @@ def solve(prep: Prepared, times: np.ndarray, start: np.ndarray | None,
     sol.response = res
     sol.interrupted = bool(getattr(res, "interrupted", False))
     if pre.halt is not None and not message:
-        _halted(sol, prep, times, pre)
+        record_halt(sol, prep, times, pre)
     return sol

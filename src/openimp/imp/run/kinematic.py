@@ -28,7 +28,7 @@ import numpy as np
 from openimp.errors import InputError
 from openimp.imp.expr import SimulationStop
 from openimp.imp.run.prepare import Driver, Prepared, reads_model
-from openimp.imp.run.quantities import _resolver
+from openimp.imp.run.quantities import value_resolver
 from openimp.imp.run.solution import Solution
 from openimp.kinematics import free_coordinate, sweep
 from openimp.kinematics.track import tracker
@@ -105,7 +105,7 @@ class Motions:
     def _jet(self, d: Driver, m: str, k: int, resolver: Callable[[int], Any] | None
              ) -> list[float] | None:
         """Value, rate and acceleration of VALUE ``m`` at step ``k`` (None: halted)."""
-        resolve = resolver(k) if resolver is not None else _time_only(self.times[k])
+        resolve = resolver(k) if resolver is not None else time_only(self.times[k])
         try:
             jet = self.state.values[m].derivatives(self.state.values, resolve)
         except SimulationStop as stop:
@@ -140,7 +140,9 @@ class Motions:
             self.halt = Halt(k, text, kind)
 
 
-def _time_only(t: float) -> Callable[[str, str | None, int], float]:
+def time_only(t: float) -> Callable[[str, str | None, int], float]:
+    """resolve(kind, name, comp) that knows only TIME (``t``): every other
+    quantity is NaN (undefined)."""
     def resolve(kind: str, name: str | None, comp: int) -> float:
         return t if kind == "TIME" else _NAN
 
@@ -196,7 +198,7 @@ def solve(prep: Prepared, times: np.ndarray, start: np.ndarray | None,
             m = 1 if lagged else n - k
             if lagged:
                 ref = last if last is not None and last.n else None
-                motions.fill(k, k + 1, lambda kk, s=ref: _resolver(
+                motions.fill(k, k + 1, lambda kk, s=ref: value_resolver(
                     prep, s if s is not None else Solution(empty, times[:0]),
                     0 if s is not None else -1, times[kk], motions, kk, notes))
             if motions.halt is not None:
@@ -237,7 +239,7 @@ def solve(prep: Prepared, times: np.ndarray, start: np.ndarray | None,
     sol = Solution.of(parts, empty, times, message)
     sol.interrupted = interrupted
     if motions.halt is not None and not message:
-        _halted(sol, prep, times, motions)
+        record_halt(sol, prep, times, motions)
     return sol
 
 
@@ -253,7 +255,7 @@ def _start_values(system: Any, cur: np.ndarray | None, drv_cols: list[int], name
     return Solution(pre, times[:1])
 
 
-def _halted(sol: Solution, prep: Prepared, times: np.ndarray, motions: Motions) -> None:
+def record_halt(sol: Solution, prep: Prepared, times: np.ndarray, motions: Motions) -> None:
     """Record on ``sol`` why the motions ended at their halt step."""
     halt = motions.halt
     assert halt is not None

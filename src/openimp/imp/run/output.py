@@ -37,13 +37,13 @@ from openimp.imp.run.prepare import (
     validate,
 )
 from openimp.imp.run.quantities import (
-    _joint_frames,
-    _resolver,
-    _value_stop,
     dynamic_tables,
     integration_lines,
+    joint_frames,
     make_table,
     print_step,
+    stop_at_value,
+    value_resolver,
 )
 from openimp.imp.run.solution import Solution
 from openimp.results import Run, Table
@@ -188,13 +188,13 @@ def execute_run(spec: RunSpec, ctx: Context) -> Run:
     for text in singular_notes(sol, stepped(state)):
         notes.append(text)
     if not (sol.stop or sol.interrupted) and sol.n:
-        sol = _value_stop(prep, sol, notes)
+        sol = stop_at_value(prep, sol, notes)
     items = prep.items
     force_failure = ""
     if sol.n and wants_forces(prep):
         laws = prep.built.dyn.laws
         if laws is not None:
-            laws.resolve_at = (lambda k, s=sol: _resolver(prep, s, k, s.times[k], None, k,
+            laws.resolve_at = (lambda k, s=sol: value_resolver(prep, s, k, s.times[k], None, k,
                                                           notes))
         sol.forces, force_failure = safe_compute(prep, sol, notes)
         if sol.forces is None:
@@ -286,7 +286,7 @@ def _scene(prep: Prepared, sol: Solution, steps: slice, title: str) -> Any:
     for j in model.joints:
         length = g.axes.get(j, g.axes_all)
         if length:
-            axes.append((j, _joint_frames(prep, sol, j)[steps], float(length)))
+            axes.append((j, joint_frames(prep, sol, j)[steps], float(length)))
     view = g.view
     times = None if stepped(st) else np.asarray(sol.times[steps])  # None: "step k / n"
     return Scene(links=links, colors=colors, view=view, axes=axes, times=times,

@@ -48,7 +48,9 @@ def _joint_origin(prep: Prepared, sol: Solution, name: str) -> np.ndarray:
     return np.einsum("sij,j->si", T, L1[:, 3])[:, :3]
 
 
-def _joint_frames(prep: Prepared, sol: Solution, name: str) -> np.ndarray:
+def joint_frames(prep: Prepared, sol: Solution, name: str) -> np.ndarray:
+    """The frame (uvw on its first body) of joint ``name`` in global
+    coordinates at each step of ``sol``: (steps, 4, 4)."""
     _, _, L1, _ = prep.built.joints[name]
     T = sol.traj.posture(prep.built.model.joints[name].body1)
     return T @ L1
@@ -80,7 +82,7 @@ _ANG_UNITS = {"POSITION": "deg", "VELOCITY": "rad/s", "ACCEL": "rad/s^2"}
 _LEN_UNITS = {"POSITION": _LEN, "VELOCITY": "length/s", "ACCEL": "length/s^2"}
 
 
-def _resolver(prep: Prepared, sol: Solution, k: int, t: float, motions: Any,
+def value_resolver(prep: Prepared, sol: Solution, k: int, t: float, motions: Any,
               step: int, notes: list[str]) -> Callable[[str, str | None, int], float]:
     """resolve(kind, name, comp) for VALUE expressions at solved step ``k``.
 
@@ -128,7 +130,7 @@ def _resolver(prep: Prepared, sol: Solution, k: int, t: float, motions: Any,
     return resolve
 
 
-def _value_stop(prep: Prepared, sol: Solution, notes: list[str]) -> Solution:
+def stop_at_value(prep: Prepared, sol: Solution, notes: list[str]) -> Solution:
     """``sol`` cut before the first step at which a VALUE of the run's requests
     evaluates RETURN or END: IMP stops the simulation there (reference §5)."""
     st = prep.spec.state
@@ -139,7 +141,7 @@ def _value_stop(prep: Prepared, sol: Solution, notes: list[str]) -> Solution:
         ex = st.values[it.name]
         for k in range(sol.n if first is None else first[0]):
             try:
-                ex.derivatives(st.values, _resolver(prep, sol, k, sol.times[k], None, k, []))
+                ex.derivatives(st.values, value_resolver(prep, sol, k, sol.times[k], None, k, []))
             except SimulationStop as stop:
                 first = (k, it.name, stop)
                 break
@@ -166,7 +168,7 @@ def _values(prep: Prepared, sol: Solution, name: str, notes: list[str]) -> np.nd
     for k in range(sol.n):
         vnotes: list[str] = []
         try:
-            out[k] = ex.derivatives(st.values, _resolver(prep, sol, k, sol.times[k], None, k,
+            out[k] = ex.derivatives(st.values, value_resolver(prep, sol, k, sol.times[k], None, k,
                                                          notes), notes=vnotes)
         except SimulationStop as stop:
             notes.append(f"{stop.where[0]}:{stop.where[1]}: VALUE {name} evaluated {stop.kind} "
@@ -313,7 +315,7 @@ def _force_table(sol: Solution, it: Item, request: str, cols: list[str], units: 
     return tables_from_columns(request, f"{it.kind} {it.name}", cols, units, data)
 
 
-def _imp_variable(prep: Prepared, vn: str) -> tuple[int | None, int, str]:
+def imp_variable(prep: Prepared, vn: str) -> tuple[int | None, int, str]:
     """The IMP joint variable that openimp's variable ``vn`` (``"joint.var"``) is: (its
     index in the IMP joint's variables, or None when the joint has no such IMP variable,
     its number as IMP prints it, its kind "angle" or "length")."""
@@ -341,7 +343,7 @@ def _free_columns(prep: Prepared, sol: Solution, cols: list[str], units: list[st
                 names.append(vn)
     for vn in names:
         joint = vn.split(".", 1)[0]
-        i, idx, kind = _imp_variable(prep, vn)
+        i, idx, kind = imp_variable(prep, vn)
         if i is not None:  # the IMP joint variable this openimp variable is (sign)
             _ij, p, v, a = _joint_vars(prep, sol, joint)
             pva = (p[:, i], v[:, i], a[:, i])
@@ -470,7 +472,7 @@ def print_step(prep: Prepared, sol: Solution, k: int, tables: dict[tuple[str, st
             joint = vn.split(".", 1)[0]
             c = prep.system.var_index(vn)
             pos, vel, acc = sol.q[k, c], sol.qd[k, c], sol.qdd[k, c]
-            i, idx, kind = _imp_variable(prep, vn)
+            i, idx, kind = imp_variable(prep, vn)
             if i is not None:  # the IMP joint variable this openimp variable is (sign)
                 _ij, p, v, a = _joint_vars(prep, sol.rows(k), joint)
                 pos, vel, acc = p[0, i], v[0, i], a[0, i]

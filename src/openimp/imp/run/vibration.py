@@ -36,7 +36,7 @@ from openimp.dynamics.modes import modes
 from openimp.errors import AnalysisError, InputError
 from openimp.imp.listing import step_text, tables_from_columns
 from openimp.imp.run.prepare import DynSpec, Item, Prepared, stepped
-from openimp.imp.run.quantities import _resolver
+from openimp.imp.run.quantities import value_resolver
 from openimp.imp.run.solution import Solution
 from openimp.results import FrequencyResponse, Linearization, Modes, Table, TransferFunction
 
@@ -93,7 +93,7 @@ class _Linearized:
         laws = prep.built.dyn.laws
         if laws is not None:  # VALUE data at this step's posture and time
             laws.times = sol.times
-            laws.resolve_at = (lambda _s: _resolver(prep, sol, k, sol.times[k], None, k,
+            laws.resolve_at = (lambda _s: value_resolver(prep, sol, k, sol.times[k], None, k,
                                                     self.notes))
         # the FGCs are held by the kinematic run: their accelerations are 0, not those of
         # the equations of motion (linearize's default for a moving set point)
