@@ -282,11 +282,11 @@ OPENIMP_SETTINGS = (
     ("rk, rtol 1e-8 (default)", {"method": "rk", "rtol": 1e-8}),
     ("rk, rtol 1e-10", {"method": "rk", "rtol": 1e-10}),
     ("rk, rtol 1e-12", {"method": "rk", "rtol": 1e-12}),
-    ("book, force_tol (1, 10 %)", {"method": "book", "force_tol": (1.0, 10.0)}),
-    ("book, force_tol (0.1, 1 %) (default, IMP's)", {"method": "book", "force_tol": (0.1, 1.0)}),
-    ("book, force_tol (1e-2, 0.1 %)", {"method": "book", "force_tol": (1e-2, 0.1)}),
-    ("book, force_tol (1e-3, 0.01 %)", {"method": "book", "force_tol": (1e-3, 0.01)}),
-    ("book, force_tol (1e-4, 1e-3 %)", {"method": "book", "force_tol": (1e-4, 1e-3)}),
+    ("book, force_error (1, 10 %)", {"method": "book", "force_error": (1.0, 10.0)}),
+    ("book, force_error (0.1, 1 %) (default, IMP's)", {"method": "book", "force_error": (0.1, 1.0)}),
+    ("book, force_error (1e-2, 0.1 %)", {"method": "book", "force_error": (1e-2, 0.1)}),
+    ("book, force_error (1e-3, 0.01 %)", {"method": "book", "force_error": (1e-3, 0.01)}),
+    ("book, force_error (1e-4, 1e-3 %)", {"method": "book", "force_error": (1e-4, 1e-3)}),
     ("rk, rtol 1e-6, outputs every 0.1 s", {"method": "rk", "rtol": 1e-6, "print_step": 0.1}),
     ("rk, rtol 1e-8, outputs every 0.1 s", {"method": "rk", "rtol": 1e-8, "print_step": 0.1}),
     ("rk, rtol 1e-10, outputs every 0.1 s", {"method": "rk", "rtol": 1e-10, "print_step": 0.1}),
@@ -1048,15 +1048,15 @@ def _openimp_remark(recs: dict) -> str:
             + f" us each (the median time difference / {extra}, per rtol; noisy on the "
             "loaded machine: a few ms between runs).")
     a = next((x for x in recs.get("openimp", {}).get("settings", []) if x.get("status") == "ok"
-              and x["params"].get("method") == "book" and "force_tol" in x["params"]
-              and tuple(x["params"]["force_tol"]) == (0.1, 1.0) and x.get("stride") == 1), None)
+              and x["params"].get("method") == "book" and "force_error" in x["params"]
+              and tuple(x["params"]["force_error"]) == (0.1, 1.0) and x.get("stride") == 1), None)
     b = next((x for x in recs.get("openimp", {}).get("settings", []) if x.get("status") == "ok"
-              and x["params"].get("method") == "book" and "force_tol" not in x["params"]
+              and x["params"].get("method") == "book" and "force_error" not in x["params"]
               and x.get("stride") == 10), None)
     if a and b:
         out.append(
             "The book method keeps its steps at most the output spacing (the book's rule): "
-            f"at its default force_tol {a['steps']} steps ({_ms(a['median_s'])} ms) with "
+            f"at its default force_error {a['steps']} steps ({_ms(a['median_s'])} ms) with "
             f"outputs every 0.01 s, {b['steps']} ({_ms(b['median_s'])} ms) with outputs "
             "every 0.1 s.")
     return " ".join(out)
