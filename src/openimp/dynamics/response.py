@@ -42,6 +42,7 @@ from openimp.dynamics.outputs import OutputBuffer, Progress, output_times, posit
 from openimp.dynamics.stepping import RunEnd
 from openimp.errors import AnalysisError, InputError
 from openimp.kinematics.ballrates import ball_columns, ball_rates
+from openimp.kinematics.inputs import finite
 from openimp.kinematics.track import tracker
 from openimp.results import CoordinateSwitch, EnergyAudit, IntegrationStats, Trajectory
 from openimp.system import State, System, make_state
@@ -327,13 +328,7 @@ def _mapping(system: System, values: Any, what: str) -> dict[int, float]:
     out: dict[int, float] = {}
     for key, v in values.items():
         c = column(system, key, what)
-        try:
-            x = float(v)
-        except (TypeError, ValueError):
-            raise InputError(f"{what}: the value of {key!r} must be a number, got {v!r}") from None
-        if not math.isfinite(x):
-            raise InputError(f"{what}: the value of {key!r} must be finite, got {v!r}")
-        out[c] = x / system.var_scale[c]
+        out[c] = finite(v, f"{what}: the value of {key!r}") / system.var_scale[c]
     return out
 
 

@@ -26,17 +26,6 @@ from openimp.errors import InputError, deprecated
 from openimp.system import State, System, make_state
 
 
-def _value(v: Any, what: str) -> float:
-    """One value of a mapping of joint variables: a finite number."""
-    try:
-        x = float(v)
-    except (TypeError, ValueError):
-        raise InputError(f"{what} must be a number, got {v!r}") from None
-    if not math.isfinite(x):
-        raise InputError(f"{what} must be finite, got {x}")
-    return x
-
-
 def posture_input(system: System, q: Any, what: str = "q") -> np.ndarray:
     """A posture given in model units, as internal joint variables (nq,): the modeling
     posture for None; a full array of the nq joint variables; or a mapping of joints
@@ -52,7 +41,7 @@ def posture_input(system: System, q: Any, what: str = "q") -> np.ndarray:
     if isinstance(q, Mapping):
         qm = system.modeling_q.copy()
         for key, v in q.items():
-            qm[system.var_index(key)] = _value(v, f"{what}[{key!r}]")
+            qm[system.var_index(key)] = finite(v, f"{what}[{key!r}]")
         return system.to_internal(qm).copy()
     try:
         arr = np.asarray(q, dtype=float).reshape(-1)
@@ -137,7 +126,7 @@ def per_coordinate(system: System, values: Any, what: str) -> np.ndarray:
         return arr / system.var_scale
     for key, v in values.items():
         c = system.var_index(key)
-        out[c] = _value(v, f"{what}[{key!r}]") / system.var_scale[c]
+        out[c] = finite(v, f"{what}[{key!r}]") / system.var_scale[c]
     return out
 
 
