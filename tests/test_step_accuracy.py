@@ -120,6 +120,40 @@ def test_spin_rates_start(phase):
     assert np.allclose(tr.angular_velocity("TOP")[-1], SPIN * AX, rtol=0, atol=1e-6)
 
 
+
+def test_linearize_spin_rates():
+    """linearize(rates={"S.w": w}) is linearize at the Euler-Rodrigues rates of that
+    angular velocity, e' = (w, 0) e / 2 (the product written here), the largest
+    parameter left dependent, to 1e-12, at a tilted posture of the heavy top where e' is
+    not w / 2; the set point spins at w (its body screws times its rates); and
+    equations() reads "S.w" alike."""
+    s = top("sphere")
+    names = ("S.e1", "S.e2", "S.e3", "S.e4")
+    e = _expq(np.array([0.3, -0.5, 0.8]))
+    q = dict(zip(names, e))
+    w = SPIN * AX + np.array([1.0, -2.0, 0.5])
+    ed = 0.5 * _qmul(np.append(w, 0.0), e)
+    dep = int(np.argmax(np.abs(e)))
+    given = {n: ed[k] for k, n in enumerate(names) if k != dep}
+    a = openimp.linearize(s, q, rates={"S.w": w})
+    b = openimp.linearize(s, q, rates=given)
+    assert a.coords == b.coords == [n for k, n in enumerate(names) if k != dep]
+    for x, y in ((a.rates, b.rates), (a.accels, b.accels), (a.M, b.M), (a.D, b.D),
+                 (a.K, b.K), (a.F, b.F)):
+        assert np.abs(x - y).max() <= 1e-12 * max(1.0, np.abs(y).max())
+    top_body = list(s.bodies).index("TOP")
+    assert np.allclose(a.bodies[top_body].T @ a.rates, np.concatenate([np.zeros(3), w]),
+                       rtol=0, atol=1e-12 * SPIN)
+    rest = openimp.linearize(s, q)
+    assert np.abs(a.D - rest.D).max() > 0.1 and np.abs(a.K - rest.K).max() > 0.1
+    ea = openimp.equations(s, q, rates={"S.w": w})
+    eb = openimp.equations(s, q, rates=given)
+    assert np.abs(ea.c - eb.c).max() <= 1e-12 * max(1.0, np.abs(eb.c).max())
+    with pytest.raises(InputError, match=r"S\.e1 is given beside the angular velocity"):
+        openimp.linearize(s, q, rates={"S.w": w, "S.e1": 0.0})
+    with pytest.raises(InputError, match="no Euler-Rodrigues"):
+        openimp.linearize(top("rev"), rates={"R1.w": (0, 0, 1)})
+
 def _run(kind: str, method: str, t: np.ndarray, **kw) -> tuple[np.ndarray, openimp.Trajectory]:
     s = top(kind)
     rates = {"S.w": SPIN * AX} if kind == "sphere" else {"R3": SPIN}

@@ -32,6 +32,7 @@ from openimp.dynamics.inertia import body_inertias, inertia_wrenches, mass_matri
 from openimp.dynamics.laws import law_values_at
 from openimp.dynamics.loads import applied_loads
 from openimp.errors import AnalysisError, InputError
+from openimp.kinematics.ballrates import spin_rates
 from openimp.kinematics.elimination import derivatives, eliminate, free_columns, jacobian
 from openimp.kinematics.inputs import (
     finite,
@@ -258,8 +259,10 @@ def equations(system: System, q: Any = None, rates: Any = None, *, state: Any = 
     ``q``: joint variables (nq,) in model units or a mapping of joint or
     ``"joint.var"`` to values (default the modeling posture; an assembled
     posture); ``rates``: mapping coordinate -> rate (model units per second;
-    default at rest); ``specified``: the SGCs (joint names or ``"joint.var"``),
-    the free coordinates are the ones the elimination leaves; ``t``: the time
+    default at rest; ``"joint.w"``: a ball joint's angular velocity, as in
+    :func:`~openimp.dynamics.linearize.linearize`); ``specified``: the SGCs
+    (joint names or ``"joint.var"``), the free coordinates are the ones the
+    elimination leaves; ``t``: the time
     (load laws read it).  ``state``: a :class:`~openimp.system.State` instead
     of ``q``, ``rates`` and ``t`` (internal units: its posture, time, SGCs and
     the rates of its generalized coordinates).  Returns an
@@ -279,6 +282,7 @@ def equations(system: System, q: Any = None, rates: Any = None, *, state: Any = 
     else:
         t = finite(t, "equations: t")
         S = make_state(system, posture_input(system, q), t)
+        rates = spin_rates(system, rates, system.to_model(S.q), "equations: rates")[0]
         psid = per_coordinate(system, rates, "equations: rates")
     for key in names_of(specified, "equations"):
         S.sgc[system.var_index(key)] = True

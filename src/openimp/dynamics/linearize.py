@@ -28,6 +28,7 @@ from openimp.dynamics.linear import (
     make_linearized,
 )
 from openimp.errors import AnalysisError, InputError
+from openimp.kinematics.ballrates import spin_rates
 from openimp.kinematics.inputs import (
     finite,
     given_state,
@@ -58,7 +59,12 @@ def linearize(system: System, q: Any = None, rates: Any = None, accels: Any = No
     joint or ``"joint.var"`` to values (the others at the modeling posture);
     default the modeling posture; an assembled posture.  ``rates``,
     ``accels``: mappings coordinate -> rate, acceleration of the generalized
-    coordinates at the set point (model units; default at rest).
+    coordinates at the set point (model units; default at rest);
+    ``"joint.w": (wx, wy, wz)`` in ``rates`` gives a ball joint's (SPHERE, OPEN)
+    angular velocity, its second body's relative to its first in the first
+    body's joint frame u v w, as in :func:`~openimp.dynamics.response.simulate`
+    (:func:`~openimp.kinematics.ballrates.spin_rates`: the rates of the three
+    parameters other than the largest, at ``q``).
     ``specified``: the SGCs (joint names or ``"joint.var"``), the other
     generalized coordinates are the FGCs the elimination leaves.  ``t``: the
     time (load laws read it).  ``state``: a :class:`~openimp.system.State`
@@ -103,6 +109,7 @@ def linearize(system: System, q: Any = None, rates: Any = None, accels: Any = No
         qi = posture_input(system, q)
         t = finite(t, "linearize: t")
     qm = system.to_model(qi)
+    rates, balls = spin_rates(system, rates, qm, "linearize: rates")
     S = make_state(system, qi, t)
     for key in specified:
         S.sgc[system.var_index(key)] = True
@@ -132,6 +139,11 @@ def linearize(system: System, q: Any = None, rates: Any = None, accels: Any = No
         newton(system.KP, data.DP, S, system.gen, CLOSE_TOL, pivot_tol, 30, False)
         S.sgc[:] = sgc0
         qm = system.to_model(S.q)
+        for joint, (bcols, e) in balls.items():
+            if not np.allclose(qm[bcols], e, rtol=0.0, atol=1e-9):
+                raise InputError(f"linearize: rates: the angular velocity of {joint!r} was "
+                                 "given at a posture that closing the loops changes: close "
+                                 "the posture first (or give the rates of its parameters)")
         nf, rank, status = _kernel(system, data, dyn, S, opts, psid, psidd, out, work)
         residual = float(np.abs(data.views("E")).max(initial=0.0))
     if residual > ASSEMBLED:

@@ -41,7 +41,7 @@ from openimp.dynamics.integration import Drive, Held, Run, column, motions, why
 from openimp.dynamics.outputs import OutputBuffer, Progress, output_times, positive
 from openimp.dynamics.stepping import RunEnd
 from openimp.errors import AnalysisError, InputError
-from openimp.kinematics.ballrates import ball_columns, ball_rates
+from openimp.kinematics.ballrates import spin_rates
 from openimp.kinematics.inputs import finite
 from openimp.kinematics.track import tracker
 from openimp.results import CoordinateSwitch, EnergyAudit, IntegrationStats, Trajectory
@@ -279,7 +279,8 @@ def _initial(system: System, q: Any, rates: Any, state: State | None, t0: float
                         dict[str, tuple[np.ndarray, np.ndarray]]]:
     """The start state (internal units), the positions given (held while the loops are
     closed) and the rates given, by column; the balls given an angular velocity, with
-    their columns and parameters the rates were made at (:func:`_spin_rates`)."""
+    their columns and parameters the rates were made at
+    (:func:`~openimp.kinematics.ballrates.spin_rates`)."""
     if state is not None:
         if q is not None or rates is not None:
             raise InputError("give either state= or q/rates, not both")
@@ -290,10 +291,12 @@ def _initial(system: System, q: Any, rates: Any, state: State | None, t0: float
             raise InputError("state: its joint variables and rates must be finite")
         return make_state(system, state.q, t0), {}, {}, {}
     q_given = _mapping(system, q, "q") if not _is_array(q) else {}
-    rates, spins = _split_spins(system, rates)
-    qd_given = _mapping(system, rates, "rates")
     S = make_state(system, _start_q(system, q), t0)
-    balls = _spin_rates(system, spins, S.q, q_given, qd_given)
+    qs = S.q.copy()  # the start posture with the given positions: the balls' rates there
+    for c, v in q_given.items():
+        qs[c] = v
+    rates, balls = spin_rates(system, rates, system.to_model(qs))
+    qd_given = _mapping(system, rates, "rates")
     return S, q_given, qd_given, balls
 
 
@@ -329,50 +332,6 @@ def _mapping(system: System, values: Any, what: str) -> dict[int, float]:
     for key, v in values.items():
         c = column(system, key, what)
         out[c] = finite(v, f"{what}: the value of {key!r}") / system.var_scale[c]
-    return out
-
-
-def _split_spins(system: System, rates: Any) -> tuple[Any, dict[str, Any]]:
-    """The rates mapping without its angular velocities of ball joints (keys
-    ``"joint.w"`` of a SPHERE or OPEN joint), and those as {joint: w}."""
-    if not isinstance(rates, Mapping):
-        return rates, {}
-    plain: dict[Any, Any] = {}
-    spins: dict[str, Any] = {}
-    for key, v in rates.items():
-        if isinstance(key, str) and key.endswith(".w") and key not in system.var_names \
-                and key[:-2] in system.joints:
-            spins[key[:-2]] = v
-        else:
-            plain[key] = v
-    return plain, spins
-
-
-def _spin_rates(system: System, spins: dict[str, Any], q: np.ndarray,
-                q_given: dict[int, float], qd_given: dict[int, float]
-                ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-    """The angular velocities of balls as the rates of three of their Euler-Rodrigues
-    parameters (the fourth, the largest in size, left dependent: the best pivot of
-    its normalisation), into qd_given (internal units), at the start posture q
-    (internal) with q_given; returns {joint: (its columns, its e there)} to check."""
-    out: dict[str, tuple[np.ndarray, np.ndarray]] = {}
-    if not spins:
-        return out
-    qs = q.copy()
-    for c, v in q_given.items():
-        qs[c] = v
-    for joint, wv in spins.items():
-        cols = ball_columns(system, joint)
-        ed = ball_rates(system, joint, wv, system.to_model(qs))
-        dep = int(np.argmax(np.abs(qs[cols])))
-        for k, c in enumerate(cols):
-            if k == dep:
-                continue
-            if int(c) in qd_given:
-                raise InputError(f"rates: {system.var_names[c]} is given beside the angular "
-                                 f"velocity of {joint!r}")
-            qd_given[int(c)] = ed[system.var_names[c]] / system.var_scale[c]
-        out[joint] = (cols, qs[cols].copy())
     return out
 
 

@@ -9,6 +9,7 @@ first body's joint frame (u, v, w): Phi' Phi^-1 has the rotation part [w]x.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -58,3 +59,49 @@ def ball_rates(system: System, joint: str, w: Any, q: Any = None) -> dict[str, f
                          f"(|e|^2 = {float(e @ e):.8g}): assemble the posture first")
     ed = er_rates(e, wv)
     return {system.var_names[c]: float(ed[k]) for k, c in enumerate(cols)}
+
+
+def spin_rates(system: System, rates: Any, q: np.ndarray, what: str = "rates"
+               ) -> tuple[Any, dict[str, tuple[np.ndarray, np.ndarray]]]:
+    """``rates`` (a mapping of joint variables to rates, model units) with every angular
+    velocity of a ball joint, key ``"joint.w"`` and value (wx, wy, wz) (:func:`ball_rates`:
+    the second body's relative to the first, rad/s, in the first body's joint frame),
+    replaced by the rates of three of its Euler-Rodrigues parameters at the posture ``q``
+    (nq,) (model units).  The fourth, the largest in size at ``q``, is left out: it is
+    the best pivot of the normalisation |e| = 1, the one the elimination makes dependent
+    on an open chain, and its rate follows from e . e' = 0.  ``rates`` that is not a
+    mapping, or holds no such key, is returned as it is.  A variable of the ball named
+    beside its angular velocity is an InputError (``what`` names the argument).
+
+    Returns the mapping and {joint: (its four columns, e (4,) at q)}: the parameters the
+    rates were made at, for a caller that moves the posture to check against."""
+    balls: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    if not isinstance(rates, Mapping):
+        return rates, balls
+    spins = {key: v for key, v in rates.items()
+             if isinstance(key, str) and key.endswith(".w") and key not in system.var_names
+             and key[:-2] in system.joints}
+    if not spins:
+        return rates, balls
+    out = {key: v for key, v in rates.items() if key not in spins}
+    named = set()
+    for key in out:
+        try:
+            named.add(system.var_index(key))
+        except (KeyError, ValueError, InputError, TypeError, IndexError):
+            pass  # the caller's own reading of the mapping names a bad key
+    for key, w in spins.items():
+        joint = key[:-2]
+        cols = ball_columns(system, joint)
+        for c in cols:
+            if int(c) in named:
+                raise InputError(f"{what}: {system.var_names[c]} is given beside the angular "
+                                 f"velocity of {joint!r}")
+        ed = ball_rates(system, joint, w, q)
+        e = np.asarray(q, dtype=float)[cols]
+        dep = int(np.argmax(np.abs(e)))
+        for k, c in enumerate(cols):
+            if k != dep:
+                out[system.var_names[c]] = ed[system.var_names[c]]
+        balls[joint] = (cols, e.copy())
+    return out, balls
