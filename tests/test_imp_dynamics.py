@@ -373,9 +373,11 @@ def test_data_time_missing_names_the_execute_and_exits_2(tmp_path) -> None:
 
 
 def test_ic_and_motion_checked_against_the_model(tmp_path) -> None:
-    sph = ("ZPIN (BASE, ARM) = A\nSPHERE (ARM, BOB) = S\nFIND DYNAMICS\n"
-           "DATA IC (S) = 10, 0\nDATA TIME = 1, 0, 0.1\nEXECUTE\nEND\n")
-    errs = errors_of(write(tmp_path, sph, "s.imp"))
+    # FLAT's polar variables are not the solver's coordinates (a SPHERE's Cardan angles
+    # are converted: test_ball_ic_cardan_angles_and_rates)
+    flat = ("ZPIN (BASE, ARM) = A\nFLAT (ARM, BOB) = F\nFIND DYNAMICS\n"
+            "DATA IC (F) = 10, 0\nDATA TIME = 1, 0, 0.1\nEXECUTE\nEND\n")
+    errs = errors_of(write(tmp_path, flat, "s.imp"))
     assert any(n == 4 and "cannot take an initial condition" in m for n, m in errs), errs
     text = FOUR + "FIND DYNAMICS\nDATA IC (A) = P0, 0\nDATA TIME = 1, 0, 0.1\nEXECUTE\nEND\n"
     p = write(tmp_path, text)
@@ -390,6 +392,86 @@ def test_ic_and_motion_checked_against_the_model(tmp_path) -> None:
     assert f"{p}:{line_of(text, 'DATA MOTION')}: DATA MOTION statement: VALUE V of joint Y " \
            "reads the model" in r.stderr
 
+
+# =============================================================================
+# DATA IC of a ball: IMP's Cardan angles and their rates
+# =============================================================================
+BALL = """TITLE = BALL IC
+UNIT (MASS) = 1
+{keyword} (BASE, BOB) = S
+DATA LINK (BASE, S) = 0,0,0; 1,0,0; 0,1,0
+DATA LINK (BOB, S) = 0,0,0; 1,0,0; 0,1,0
+POINT (BOB) = P1, P2
+DATA POINT (P1, ABS) = 0.1, 0, 0.3
+DATA POINT (P2, ABS) = 0, 0.2, 0.1
+DATA MASS (BOB, LINK) = 2.0; 0.05, 0.1, 0.3
+DATA INERTIA (BOB, LINK) = 0.21, 0.195, 0.035, 0.01, 0.03, 0.06
+DATA GRAVITY = 0, 0, -9.80665
+FIND DYNAMICS
+DATA IC (S) = {ic}
+DATA TIME = 0.01, 0, 0.005
+LIST POSITION (S, P1, P2)
+LIST VELOCITY (S, P1, P2)
+EXECUTE
+END
+"""
+#: the columns u, v, w of both joint frames at the drawing, in global axes (w along X,
+#: u along Y: DATA LINK above)
+BALL_F = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+BALL_P = {"P1": np.array([0.1, 0.0, 0.3]), "P2": np.array([0.0, 0.2, 0.1])}
+
+
+def _turn(axis: int, a: float) -> np.ndarray:
+    """The rotation by ``a`` about coordinate axis ``axis`` (0, 1, 2: x, y, z)."""
+    c, s = math.cos(a), math.sin(a)
+    i, j = (axis + 1) % 3, (axis + 2) % 3
+    R = np.eye(3)
+    R[i, i], R[i, j], R[j, i], R[j, j] = c, -s, s, c
+    return R
+
+
+@pytest.mark.parametrize(("keyword", "ic", "ang", "rate", "shift", "speed"), [
+    ("SPHERE", "20, 1.5; -35, -2.0; 50, 3.0", (20, -35, 50), (1.5, -2.0, 3.0), (0, 0, 0),
+     (0, 0, 0)),
+    ("SPHERE", "20, 1.5; NONE, NONE; 50, 3.0", (20, 0, 50), (1.5, 0.0, 3.0), (0, 0, 0),
+     (0, 0, 0)),
+    ("OPEN", "0.05,0.4; NONE,NONE; NONE,-0.2; 20,1.5; -35,-2.0; 50,3.0",  # 72 columns
+     (20, -35, 50), (1.5, -2.0, 3.0), (0.05, 0, 0), (0.4, 0, -0.2)),
+], ids=["sphere", "sphere-none", "open"])
+def test_ball_ic_cardan_angles_and_rates(tmp_path, keyword, ic, ang, rate, shift,
+                                         speed) -> None:
+    """DATA IC of a SPHERE (and of OPEN's variables 4-6): IMP's Cardan angles x-y'-z''
+    (degrees) and their rates (rad/s), NONE keeping the drawn angle (0) and a zero rate.
+    The first listed row gives them back to 1e-9; and independently, the body's points
+    at t = 0 are where R = Rx(t1) Ry(t2) Rz(t3) in the first joint frame puts them and
+    move at omega x r, omega = x t1' + Rx y t2' + Rx Ry z t3' in that frame (written
+    here; the frame is turned against the global one so that its axes matter)."""
+    p = write(tmp_path, BALL.format(keyword=keyword, ic=ic))
+    run = run_deck(p)[0][0]
+    assert run.mode == "dynamic" and not run.failure, run.failure
+    n = 6 if keyword == "OPEN" else 3
+    pos = np.asarray(run.table("LIST POSITION", "joint S").rows)[0, 1:]
+    vel = np.asarray(run.table("LIST VELOCITY", "joint S").rows)[0, 1:]
+    assert pos.shape == vel.shape == (n,)
+    np.testing.assert_allclose(pos[n - 3:], ang, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(vel[n - 3:], rate, rtol=0, atol=1e-9)
+    if keyword == "OPEN":
+        np.testing.assert_allclose(pos[:3], shift, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(vel[:3], speed, rtol=0, atol=1e-9)
+    a, b, c = np.radians(ang)
+    Rx, Ry, Rz = _turn(0, a), _turn(1, b), _turn(2, c)
+    R = Rx @ Ry @ Rz
+    E = np.eye(3)
+    w = E[:, 0] * rate[0] + Rx @ E[:, 1] * rate[1] + Rx @ Ry @ E[:, 2] * rate[2]
+    F = BALL_F
+    for name, p0 in BALL_P.items():
+        local = R @ F.T @ p0  # in the first joint frame, from the joint's origin
+        r = F @ (np.asarray(shift, float) + local)
+        v = F @ (np.asarray(speed, float) + np.cross(w, local))
+        got_r = np.asarray(run.table("LIST POSITION", f"point {name}").rows)[0, 1:]
+        got_v = np.asarray(run.table("LIST VELOCITY", f"point {name}").rows)[0, 1:]
+        np.testing.assert_allclose(got_r, r, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(got_v, v, rtol=0, atol=1e-12)
 
 def test_delete_dynamics_returns_to_undefined_mode(tmp_path) -> None:
     """DELETE DYNAMICS: a kinematic run may follow (DATA POSITION allowed again); DATA

@@ -926,7 +926,8 @@ class Interpreter:
             raise self.error(f"joint {jd.name} ({jd.keyword}) has {ij.nvar} variable(s) but "
                              f"{len(pairs)} position, velocity pairs are given")
         for k, (pos, vel) in enumerate(pairs):
-            if (pos is not None or vel is not None) and ij.drive[k] is None:
+            if (pos is not None or vel is not None) and ij.drive[k] is None \
+                    and not ij.is_cardan(k):
                 raise self.error(f"variable {k + 1} of {jd.keyword} joint {jd.name} cannot take "
                                  "an initial condition in openimp yet (it is not one of the "
                                  "solver's coordinates); give NONE, NONE for it")

@@ -31,6 +31,8 @@ from openimp.joints import CATALOGUE
 __all__ = [
     "IMP_JOINTS",
     "ImpJoint",
+    "cardan_angular_velocity",
+    "cardan_to_er",
     "frame_w",
     "imp_variables",
     "placement_frames",
@@ -72,6 +74,9 @@ class ImpJoint:
         data_form: True when the keyword has its own ``DATA <keyword>`` form.
         params: the ``DATA`` statement that gives its constants (``DATA GEAR``),
             required at EXECUTE, or ``""``.
+        cardan: the index of the first of its three Cardan angles among the IMP
+            variables, which is also that of e1 among the openimp ones (SPHERE 0,
+            OPEN 3), or -1.
     """
 
     keyword: str
@@ -81,11 +86,16 @@ class ImpJoint:
     drive: tuple[tuple[int, float] | None, ...]
     data_form: bool = True
     params: str = ""
+    cardan: int = -1
 
     @property
     def nvar(self) -> int:
         """Number of IMP joint variables."""
         return len(self.var_kinds)
+
+    def is_cardan(self, k: int) -> bool:
+        """True when IMP variable ``k`` (0-based) is one of the joint's Cardan angles."""
+        return self.cardan >= 0 and self.cardan <= k < self.cardan + 3
 
     @property
     def available(self) -> bool:
@@ -117,9 +127,10 @@ IMP_JOINTS: dict[str, ImpJoint] = {
     "FLAT": ImpJoint("FLAT", "flat", (_A, _L, _A), _ID, (None, None, None), False),
     "PLANE": ImpJoint("PLANE", "flat", (_L, _L, _A), _ID, ((0, 1.0), (1, 1.0), (2, 1.0)),
                       False),
-    "SPHERE": ImpJoint("SPHERE", "sphere", (_A, _A, _A), _ID, (None, None, None)),
+    "SPHERE": ImpJoint("SPHERE", "sphere", (_A, _A, _A), _ID, (None, None, None),
+                       cardan=0),
     "OPEN": ImpJoint("OPEN", "open", (_L, _L, _L, _A, _A, _A), _ID,
-                     ((0, 1.0), (1, 1.0), (2, 1.0), None, None, None), False),
+                     ((0, 1.0), (1, 1.0), (2, 1.0), None, None, None), False, cardan=3),
 }
 
 
@@ -252,6 +263,35 @@ def _cardan(R: np.ndarray) -> np.ndarray:
     return np.unwrap(out, axis=0) if len(out) > 1 else out
 
 
+def _cardan_axes(ang: np.ndarray) -> np.ndarray:
+    """(steps, 3, 3): the columns are the axes of the three Cardan turns of ``ang``
+    (steps, 3) in the first frame, x, Rx(a) y, Rx(a) Ry(b) z: the relative angular
+    velocity of R = Rx(a) Ry(b) Rz(c) in the first frame is E (a', b', c')."""
+    a, b = ang[:, 0], ang[:, 1]
+    Rx = sp.rot_x(a)[:, :3, :3]
+    e1 = np.broadcast_to(_X, (len(a), 3))
+    e2 = Rx[:, :, 1]
+    e3 = np.einsum("sij,sj->si", Rx @ sp.rot_y(b)[:, :3, :3], np.broadcast_to(_Z, (len(a), 3)))
+    return np.stack([e1, e2, e3], axis=2)
+
+
+def cardan_to_er(ang: np.ndarray, near: np.ndarray) -> np.ndarray:
+    """The Euler-Rodrigues parameters (4,) of R = Rx(a) Ry(b) Rz(c), ``ang`` = (a, b, c)
+    in radians: the product of the three turns' parameters (3.57), of the sign nearer
+    ``near`` (4,) (the joint's present parameters: the posture moves continuously)."""
+    e = sp.quat_multiply(sp.quat_multiply(sp.axis_angle_to_er(_X, ang[0]),
+                                          sp.axis_angle_to_er(_Y, ang[1])),
+                         sp.axis_angle_to_er(_Z, ang[2]))
+    return -e if float(e @ near) < 0.0 else e
+
+
+def cardan_angular_velocity(ang: np.ndarray, rate: np.ndarray) -> np.ndarray:
+    """The relative angular velocity (3,) in the first frame (rad/s) of Cardan angles
+    ``ang`` (3,) (radians) turning at ``rate`` (3,): the inverse of the conversion of
+    :func:`imp_variables`, omega = x a' + Rx(a) y b' + Rx(a) Ry(b) z c'."""
+    return _cardan_axes(np.asarray(ang, float)[None, :])[0] @ np.asarray(rate, float)
+
+
 def _cardan_rates(e: np.ndarray, ed: np.ndarray | None, edd: np.ndarray | None
                   ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
     """Cardan angles of ER parameters and their first and second time derivatives."""
@@ -263,12 +303,8 @@ def _cardan_rates(e: np.ndarray, ed: np.ndarray | None, edd: np.ndarray | None
     n2 = np.sum(e * e, axis=1, keepdims=True)
     omega = 2.0 * sp.quat_multiply(ed, sp.quat_conjugate(e))[:, :3] / n2
     alpha = 2.0 * sp.quat_multiply(edd, sp.quat_conjugate(e))[:, :3] / n2
-    a, b = ang[:, 0], ang[:, 1]
-    Rx = sp.rot_x(a)[:, :3, :3]
-    e1 = np.broadcast_to(_X, (len(a), 3))
-    e2 = Rx[:, :, 1]
-    e3 = np.einsum("sij,sj->si", Rx @ sp.rot_y(b)[:, :3, :3], np.broadcast_to(_Z, (len(a), 3)))
-    E = np.stack([e1, e2, e3], axis=2)
+    E = _cardan_axes(ang)
+    e1, e2, e3 = E[:, :, 0], E[:, :, 1], E[:, :, 2]
     rate = np.linalg.solve(E, omega[..., None])[..., 0]
     ad, bd = rate[:, 0:1], rate[:, 1:2]
     cd = rate[:, 2:3]
@@ -289,8 +325,8 @@ def imp_variables(
     """
     kw = ij.keyword
     n = q.shape[0]
-    if kw in ("SPHERE", "OPEN"):
-        k = 0 if kw == "SPHERE" else 3
+    if ij.cardan >= 0:
+        k = ij.cardan
         ang, rate, acc = _cardan_rates(q[:, k:k + 4], None if qd is None else qd[:, k:k + 4],
                                        None if qdd is None else qdd[:, k:k + 4])
         if kw == "SPHERE":

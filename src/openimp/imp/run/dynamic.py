@@ -35,7 +35,7 @@ import numpy as np
 
 from openimp.errors import AnalysisError, InputError
 from openimp.imp.expr import Expression, SimulationStop
-from openimp.imp.jointmap import imp_variables
+from openimp.imp.jointmap import cardan_angular_velocity, cardan_to_er, imp_variables
 from openimp.imp.run.kinematic import Motions, record_halt, time_only
 from openimp.imp.run.prepare import Driver, Prepared
 from openimp.imp.run.quantities import imp_variable
@@ -130,24 +130,32 @@ def _ic_value(prep: Prepared, x: float | str, kind: str, t0: float, where: Any,
     return v
 
 
-def initial_conditions(prep: Prepared, t0: float, notes: list[str]
-                       ) -> tuple[dict[str, float], dict[str, float]]:
+def initial_conditions(prep: Prepared, t0: float, notes: list[str],
+                       posture: np.ndarray | None = None
+                       ) -> tuple[dict[str, float], dict[str, Any]]:
     """DATA IC as :func:`openimp.simulate` takes them: (positions, rates), openimp
-    variable name -> model units, signed.  An IC on an input motion (an SGC) is not
-    used, with a message: the motion sets that variable."""
+    variable name -> model units, signed; the Cardan angles of a SPHERE or OPEN joint
+    as its Euler-Rodrigues parameters and its angular velocity ``"joint.w"``
+    (:func:`_cardan_ic`, at the posture ``posture`` (nq,), model units; default the
+    modeling posture).  An IC on an input motion (an SGC) is not used, with a message:
+    the motion sets that variable."""
     state = prep.spec.state
     system = prep.system
     q0: dict[str, float] = {}
-    rates: dict[str, float] = {}
+    rates: dict[str, Any] = {}
     driven = {(d.joint, d.var) for d in prep.drivers}
     for joint, ic in state.extras.get("ics", {}).items():
         if joint not in prep.built.joints:
             continue
         ij = prep.built.joints[joint][0]
-        start = system.joint_vars(joint).start
+        first = system.joint_vars(joint).start
         where = ic["where"]
+        ball: dict[int, tuple[Any, Any]] = {}
         for k, (pos, vel) in enumerate(ic["pairs"]):
             if pos is None and vel is None:
+                continue
+            if ij.is_cardan(k):
+                ball[k - ij.cardan] = (pos, vel)
                 continue
             if (joint, k) in driven:
                 notes.append(f"{where[0]}:{where[1]}: DATA IC of joint {joint} {k + 1} is not "
@@ -156,7 +164,7 @@ def initial_conditions(prep: Prepared, t0: float, notes: list[str]
                 continue
             drive = ij.drive[k]
             assert drive is not None  # refused when DATA IC was read
-            key = system.var_names[start + drive[0]]
+            key = system.var_names[first + drive[0]]
             kind = ij.var_kinds[k]
             if pos is not None:
                 q0[key] = drive[1] * _ic_value(prep, pos, kind, t0, where,
@@ -166,7 +174,43 @@ def initial_conditions(prep: Prepared, t0: float, notes: list[str]
                 rates[key] = drive[1] * _ic_value(prep, vel, "rate", t0, where,
                                                   f"initial velocity of joint {joint} {k + 1}",
                                                   notes)
+        if ball:
+            _cardan_ic(prep, joint, ball, posture, t0, where, notes, q0, rates)
     return q0, rates
+
+
+def _cardan_ic(prep: Prepared, joint: str, ball: dict[int, tuple[Any, Any]],
+               posture: np.ndarray | None, t0: float, where: Any, notes: list[str],
+               q0: dict[str, float], rates: dict[str, Any]) -> None:
+    """The DATA IC of the Cardan angles of a SPHERE or OPEN joint ``joint``, ``ball``
+    {0, 1, 2: (position, velocity)}, into ``q0`` and ``rates``: the positions (IMP's
+    x-y'-z'' angles, R = Rx(t1) Ry(t2) Rz(t3); NONE keeps the angle of the joint at
+    ``posture`` (nq,), model units, default the modeling posture) as the joint's four
+    Euler-Rodrigues parameters, held while the loops are closed; the rates (rad/s,
+    NONE = 0) as the relative angular velocity in the first body's joint frame,
+    omega = x t1' + Rx y t2' + Rx Ry z t3' (the inverse of the listings' conversion,
+    :func:`~openimp.imp.jointmap.imp_variables`), which simulate reads as ``"joint.w"``."""
+    system = prep.system
+    ij = prep.built.joints[joint][0]
+    sl = system.joint_vars(joint)
+    qj = (system.modeling_q if posture is None else np.asarray(posture, float))[sl]
+    cols = np.arange(ij.cardan, ij.cardan + 4)  # e1..e4 among the joint's variables
+    ang = imp_variables(ij, qj[None, :], None, None)[0][0, ij.cardan:ij.cardan + 3].copy()
+    rate = np.zeros(3)
+    for i, (pos, vel) in ball.items():
+        label = f"joint {joint} {ij.cardan + i + 1}"
+        if pos is not None:
+            ang[i] = _ic_value(prep, pos, "angle", t0, where, f"initial position of {label}",
+                               notes)
+        if vel is not None:
+            rate[i] = _ic_value(prep, vel, "rate", t0, where, f"initial velocity of {label}",
+                                notes)
+    if any(pos is not None for pos, _ in ball.values()):
+        e = cardan_to_er(ang, qj[cols])
+        for k, c in enumerate(cols):
+            q0[system.var_names[sl.start + c]] = float(e[k])
+    if any(vel is not None for _, vel in ball.values()):
+        rates[f"{joint}.w"] = tuple(float(x) for x in cardan_angular_velocity(ang, rate))
 
 
 def _start(prep: Prepared, start: np.ndarray | None, q0: dict[str, float]) -> Any:
@@ -300,7 +344,7 @@ def _integrate(prep: Prepared, span: np.ndarray, start: np.ndarray | None,
     conditions, motions and tolerances; VALUE laws read the state of each instant."""
     from openimp.dynamics.response import simulate
 
-    q0, rates = initial_conditions(prep, float(span[0]), notes)
+    q0, rates = initial_conditions(prep, float(span[0]), notes, start)
     laws = prep.built.dyn.laws
     if laws is not None:
         laws.times = None
