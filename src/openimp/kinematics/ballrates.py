@@ -1,8 +1,9 @@
 """Angular velocities of ball joints as the rates of their joint variables (book 3.48-3.50).
 
-A SPHERE joint (and the rotation of an OPEN joint) turns through Euler-Rodrigues
-parameters e = (e1, e2, e3, e4), e4 = cos(angle / 2), under |e| = 1 (6.43); its joint
-rates are e', not an angular velocity.  :func:`ball_rates` converts.  The angular
+A SPHERE joint (and the rotation of an OPEN, sphere_plane or sphere_groove joint: each
+Phi = [[Theta(e), t], [0, 1]]) turns through Euler-Rodrigues parameters e = (e1, e2, e3,
+e4), e4 = cos(angle / 2), under |e| = 1 (6.43); its joint rates are e', not an angular
+velocity.  :func:`ball_rates` converts.  The angular
 velocity ``w`` is the one of the joint's second body relative to its first, in the
 first body's joint frame (u, v, w): Phi' Phi^-1 has the rotation part [w]x.
 """
