@@ -52,7 +52,8 @@ class Singularity:
     the specified ones; ``branch``: at a change point, ``"smooth"`` (the branch
     whose tangent continues the incoming motion) or ``"other"`` (the user's
     choice), at a dead point what the sweep did; ``quality``: the quality index
-    there.
+    there.  In a time response ``time`` is when it was passed (s; None in a sweep),
+    ``drivers`` the free coordinates there and ``step`` the first output after it.
     """
 
     step: int
@@ -65,10 +66,13 @@ class Singularity:
     gained: list[str]
     branch: str
     quality: float
+    time: float | None = None
 
     def __str__(self) -> str:
         where = (f"step {self.step}" if self.landed else
                  f"between steps {self.step - 1} and {self.step}")
+        if self.time is not None:
+            where = f"t = {self.time:.9g} s"
         at = ", ".join(f"{k} = {v:.8g}" for k, v in self.drivers.items())
         free = ", ".join(self.gained[:6]) + (f" and {len(self.gained) - 6} more"
                                              if len(self.gained) > 6 else "")

@@ -51,6 +51,8 @@ WHY = {
     Stage.TOO_LARGE: "the step stays too large even at the smallest step",
     Stage.UNDERFLOW: "the error control asked for a step below 1e-14 of the time (the motion "
                      "is discontinuous there, or the tolerance is below roundoff)",
+    Stage.NEAR_CHANGE: "a change point (the loops' Jacobian singular, branches of motion "
+                       "meeting) could not be passed",
 }
 
 
@@ -165,6 +167,8 @@ class Run:
         self.instant = Instant(system, None, self.data)
         self.law = self.dyn.v.law
         self.switches: list[tuple[int, float, tuple[str, ...], tuple[str, ...]]] = []
+        #: change points passed: (time, posture, the whole Jacobian's smallest pivot there)
+        self.crossings: list[tuple[float, np.ndarray, float]] = []
         self.g_start = np.zeros(0)
         self.g_end = np.zeros(0)
         self.snap: list[np.ndarray] = []
@@ -389,6 +393,12 @@ class Run:
                     continue
             if code == RunEnd.STOPPED:
                 self.failed(int(w.why[0]))
+            tc = float(w.tcross[0])
+            if code in (RunEnd.SWITCHED, RunEnd.CROSSED) and not math.isnan(tc) and not (
+                    self.crossings and abs(tc - self.crossings[-1][0]) <= 1e-9 * max(1.0, tc)):
+                self.crossings.append((tc, w.qcross.copy(), float(w.pcross[0])))
+            if code == RunEnd.CROSSED:
+                continue
             if code != RunEnd.SWITCHED:
                 return code
             new = self.fgc_names()

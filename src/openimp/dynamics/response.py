@@ -41,10 +41,17 @@ from openimp.dynamics.integration import Drive, Held, Run, column, motions, why
 from openimp.dynamics.outputs import OutputBuffer, Progress, output_times, positive
 from openimp.dynamics.stepping import RunEnd
 from openimp.errors import AnalysisError, InputError
+from openimp.kinematics import singular as sing
 from openimp.kinematics.ballrates import spin_rates
 from openimp.kinematics.inputs import finite
 from openimp.kinematics.track import tracker
-from openimp.results import CoordinateSwitch, EnergyAudit, IntegrationStats, Trajectory
+from openimp.results import (
+    CoordinateSwitch,
+    EnergyAudit,
+    IntegrationStats,
+    Singularity,
+    Trajectory,
+)
 from openimp.system import State, System, make_state
 
 #: methods of :func:`simulate`
@@ -383,6 +390,7 @@ def _response(system: System, r: Run, out: OutputBuffer, drive: Drive, message: 
     res.coordinate_switches = [CoordinateSwitch(k if out.keep else min(k, n - 1), ts, old, new)
                                for k, ts, old, new in r.switches]
     res.events = list(r.events)
+    res.singularities = _change_points(system, r, rows)
     res.interrupted = "interrupted by the user" in message
     w = r.w
     res.integration = IntegrationStats(
@@ -390,6 +398,32 @@ def _response(system: System, r: Run, out: OutputBuffer, drive: Drive, message: 
         float(w.smallest[0]) if w.steps[0] else 0.0, float(w.largest[0]), int(w.forced[0]),
         len(r.events), seconds)
     return res
+
+
+def _change_points(system: System, r: Run, rows: stp.OutputRows) -> list[Singularity]:
+    """The change points the run passed (:func:`~openimp.dynamics.stepping.crossing`) as
+    :class:`~openimp.results.Singularity` records, classified at their postures
+    against the start's whole Jacobian."""
+    if not r.crossings or rows.t.size == 0:
+        return []
+    ptol = float(r.w.ptol[0])
+    sgc = _sgc(system, r.drive.cols)
+    full_ref = sing.full_quality(system, rows.q[0], ptol)
+    regular = int(rows.fgc[0].sum()) + r.drive.cols.size
+    t = rows.t
+    out = []
+    for tc, q, _ in r.crossings:
+        kind, mob, free = sing.classify(system, q, sgc, ptol, full_ref, regular)
+        quality = sing.full_quality(system, q, ptol, full_ref[0])[1]
+        k = int(min(np.searchsorted(t, tc, side="right"), t.size - 1))
+        pos = float(k) if k == 0 or t[k] <= tc else k - 1 + (tc - t[k - 1]) / (t[k] - t[k - 1])
+        fgc = rows.fgc[min(k, t.size - 1)]
+        at = {system.var_names[c]: float(q[c] * system.var_scale[c]) for c in np.flatnonzero(fgc)}
+        branch = ("continued on the branch whose tangent continues the motion"
+                  if kind == sing.CHANGE_POINT else "")
+        out.append(Singularity(k, False, pos, at, kind, mob, regular, free, branch, quality,
+                               time=tc))
+    return out
 
 
 def _sgc(system: System, scols: np.ndarray) -> np.ndarray:

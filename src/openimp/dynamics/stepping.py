@@ -69,6 +69,7 @@ from openimp.dynamics.linear import (
 from openimp.kinematics.elimination import eliminate, free_columns, jacobian
 from openimp.kinematics.position import position
 from openimp.kinematics.posture import newton
+from openimp.kinematics.singular import NEAR_SINGULAR
 from openimp.linalg import cholesky_solve, expm
 from openimp.system import (
     DAMPER,
@@ -100,6 +101,9 @@ class Stage(IntEnum):
     UNDERFLOW = 5
     #: a motion, a law or a switching function (Python) failed: the run's handler says why
     PYTHON = 6
+    #: a stage fell next to a change point (the whole loop Jacobian nearly singular):
+    #: the attempt is retried with a length whose stages pass it (:func:`pass_change`)
+    NEAR_CHANGE = 7
 
 
 class Attempt(IntEnum):
@@ -126,15 +130,19 @@ class RunEnd(IntEnum):
     #: a switching function changed sign over the step just accepted (outputs not yet
     #: recorded): the caller locates the root and finishes the step (:func:`after_step`)
     EVENT = 5
+    #: the step just accepted passed a change point (outputs recorded; its time and
+    #: posture in w.tcross, w.qcross): the caller records it and calls again
+    CROSSED = 6
 
 
 # the codes as plain integers for the kernels
 OK, NO_CLOSURE, SINGULAR_MASS = int(Stage.OK), int(Stage.NO_CLOSURE), int(Stage.SINGULAR_MASS)
 LOST_COORDINATES, TOO_LARGE = int(Stage.LOST_COORDINATES), int(Stage.TOO_LARGE)
-UNDERFLOW, PYTHON = int(Stage.UNDERFLOW), int(Stage.PYTHON)
+UNDERFLOW, PYTHON, NEAR_CHANGE = int(Stage.UNDERFLOW), int(Stage.PYTHON), int(Stage.NEAR_CHANGE)
 ACCEPTED, REJECTED, FAILED = int(Attempt.ACCEPTED), int(Attempt.REJECTED), int(Attempt.FAILED)
 REACHED, SWITCHED, STOPPED = int(RunEnd.REACHED), int(RunEnd.SWITCHED), int(RunEnd.STOPPED)
 CAPPED, FULL, EVENT = int(RunEnd.CAPPED), int(RunEnd.FULL), int(RunEnd.EVENT)
+CROSSED = int(RunEnd.CROSSED)
 H_MOTION_ROWS, H_LAWS, H_LAW_TERMS = int(Hook.MOTION), int(Hook.LAWS), int(Hook.LAW_TERMS)
 H_SNAP, H_SWITCH = int(Hook.SNAP), int(Hook.SWITCH)
 
@@ -157,6 +165,27 @@ NSTAGE = 7
 #: 3-point Gauss-Legendre nodes on [0, 1] and weights (exact to degree 5)
 GL_X = np.array([0.5 - math.sqrt(15.0) / 10.0, 0.5, 0.5 + math.sqrt(15.0) / 10.0])
 GL_W = np.array([5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0])
+#: the stage times of the book's step (start, middle, end) as fractions of it
+BOOK_C = np.array([0.0, 0.5, 1.0])
+#: a step whose stages' smallest pivot (of the closures, FGCs and SGCs held) fell below
+#: this fraction of the largest met is searched for a change point (the whole Jacobian's
+#: smallest pivot, along the step)
+DIP = 0.2
+#: a change point is located where the whole Jacobian's smallest pivot falls below this
+#: fraction of its regular value (:func:`crossing`)
+VANISH = 1e-3
+#: a closure whose smallest pivot (FGCs and SGCs held) is below this many times
+#: NEAR_SINGULAR is asked whether it is next to a change point (the whole Jacobian's
+#: pivots are not the same numbers as the partitioned one's)
+WATCH = 10.0
+#: stages are placed at least this many times NEAR_SINGULAR of pivot away from a change
+#: point (the pivot taken linear in time there)
+MARGIN = 1.5
+#: attempts refused in a row next to a change point before the step is only halved
+NEAR_TRIES = 6
+#: a step placed to pass a change point is kept up to this error (against the
+#: tolerance): the stages next to it carry round-off no shorter step removes
+LEAP_ERR = 100.0
 
 
 
@@ -279,6 +308,28 @@ WORK_FIELDS: tuple[Field, ...] = (
     Field("qref", "f", (1,), "quality index at the last choice of the FGCs"),
     Field("why", "i", (1,), "why the last attempt failed (Stage)"),
     Field("tfail", "f", (1,), "time of an output that failed (NaN: the step's)"),
+    # change points (the whole loop Jacobian singular, branches of motion meeting)
+    Field("qpred", "f", ("nq",), "predicted posture of the stage last closed"),
+    Field("qkeep", "f", ("nq",), "scratch posture"),
+    Field("pmin", "f", (1,), "smallest pivot of the last closure (FGCs, SGCs held)"),
+    Field("pmax", "f", (1,), "the largest pmin met (its regular size)"),
+    Field("wmax", "f", (1,), "the whole Jacobian's smallest pivot at the last restart "
+          "(its regular size; only the SGCs held)"),
+    Field("pdip", "f", (1,), "the smallest pmin over the stages of the attempt"),
+    Field("tdip", "f", (1,), "the time of that stage"),
+    Field("qdip", "f", ("nq",), "its posture"),
+    Field("near", "f", (4,), "an attempt refused next to a change point: the time of its "
+          "stage nearest it, the whole Jacobian's smallest pivot there and at the step "
+          "start, the pivot below which no stage may fall"),
+    Field("nears", "i", (1,), "attempts refused in a row next to a change point"),
+    Field("leap", "b", (1,), "the attempt's length was chosen to pass a change point (kept "
+          "whatever its error)"),
+    Field("qprev", "f", ("nq",), "joint variables at the start of the step just taken"),
+    Field("qdprev", "f", ("nq",), "their rates"),
+    Field("qddprev", "f", ("nq",), "their accelerations"),
+    Field("tcross", "f", (1,), "time of the change point last passed"),
+    Field("pcross", "f", (1,), "the whole Jacobian's smallest pivot there"),
+    Field("qcross", "f", ("nq",), "the posture there"),
 )
 
 KStep = namedtuple("KStep", [f.name for f in WORK_FIELDS])  # type: ignore[misc]
@@ -343,14 +394,15 @@ def make_work(nq: int, ns: int, nb: int, nlaw: int) -> Work:
 # ------------------------------------------------------------------ the stage
 @njit(nrt=False)
 def close_stage(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, W: Work,
-                dt: float, srow: int) -> int:
+                dt: float, srow: int, watch: bool) -> int:
     """Close the loops at the stage state: every joint variable predicted from the step
     start over dt (second-order Taylor), the FGCs at w.xs, the SGCs at w.ms[srow];
-    Newton holding both.  Returns OK or NO_CLOSURE."""
+    Newton holding both.  Returns OK, NO_CLOSURE or, with ``watch`` (the stages of
+    an attempt), NEAR_CHANGE (:func:`near_change`)."""
     w = step_views(W.P)
     for a in range(S.q.shape[0]):
         S.q[a] = w.q0[a] + dt * w.qd0[a] + 0.5 * dt * dt * w.qdd0[a]
-    return _close(KP, DP, S, gen, W, srow)
+    return _close(KP, DP, S, gen, W, srow, watch)
 
 
 @njit(nrt=False)
@@ -360,15 +412,17 @@ def close_near(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, W: Work,
     qdd) over dt: a point near it, not near the step start."""
     for a in range(S.q.shape[0]):
         S.q[a] += dt * S.qd[a] + 0.5 * dt * dt * S.qdd[a]
-    return _close(KP, DP, S, gen, W, srow)
+    return _close(KP, DP, S, gen, W, srow, False)
 
 
 @njit(nrt=False, inline="always")
 def _close(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, W: Work,
-           srow: int) -> int:
+           srow: int, watch: bool) -> int:
     """Newton from the predicted S.q holding the FGCs at w.xs and the SGCs at
-    w.ms[srow]; the quality index into w.quality[0].  OK or NO_CLOSURE."""
+    w.ms[srow]; the quality index into w.quality[0], the smallest pivot into
+    w.pmin[0].  OK, NO_CLOSURE or NEAR_CHANGE (with ``watch``)."""
     w = step_views(W.P)
+    d = data_views(DP)
     nq = S.q.shape[0]
     nF = w.nF[0]
     for a in range(nq):
@@ -378,14 +432,236 @@ def _close(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, W: Work,
         S.sgc[w.fcols[j]] = True
     for s in range(w.scols.shape[0]):
         S.q[w.scols[s]] = w.ms[srow, s, 0]
-    status, _, _, quality, _ = newton(KP, DP, S, gen, w.ctol[0], w.ptol[0], w.maxit[0], False)
+    for a in range(nq):
+        w.qpred[a] = S.q[a]
+    status, _, rank, quality, rest = newton(KP, DP, S, gen, w.ctol[0], w.ptol[0],
+                                            w.maxit[0], False)
     for a in range(nq):
         S.sgc[a] = w.keep[a]
     w.closes[0] += 1
+    # the smallest pivot; a pivot lost counts as the entry left (the rank the FGCs and
+    # SGCs leave is nq - nF - nS)
+    p = rest
+    if rank == nq - nF - w.scols.shape[0]:
+        p = math.inf
+        for k in range(rank):
+            p = min(p, abs(1.0 / d.pinv[k]))
+    w.pmin[0] = p
+    if watch and (status != 0 or p < WATCH * NEAR_SINGULAR) and near_change(
+            KP, DP, S, gen, W, status != 0):
+        return NEAR_CHANGE
     if status != 0:
         return NO_CLOSURE
     w.quality[0] = quality
+    if watch:
+        w.pmax[0] = max(w.pmax[0], p)
+        if p < w.pdip[0]:
+            w.pdip[0] = p
+            w.tdip[0] = S.t[0]
+            for a in range(nq):
+                w.qdip[a] = S.q[a]
     return OK
+
+
+# ------------------------------------------------------------------ change points
+@njit(nrt=False)
+def whole_pivot(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, W: Work) -> float:
+    """The smallest pivot of the whole loop Jacobian at S.q, only the SGCs (S.sgc) held:
+    it vanishes at a change point, where the mechanism gains freedoms and branches of
+    motion meet (book 6.9), whatever the FGCs; a pivot lost counts as the entry left."""
+    w = step_views(W.P)
+    d = data_views(DP)
+    position(KP, DP, S, gen, 1)
+    jacobian(KP, DP, S, gen)
+    rank, _, rest = eliminate(DP, S.sgc, w.ptol[0])
+    if rank < S.q.shape[0] - w.nF[0] - w.scols.shape[0]:
+        return rest
+    p = math.inf
+    for k in range(rank):
+        p = min(p, abs(1.0 / d.pinv[k]))
+    return p
+
+
+@njit(nrt=False)
+def near_change(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, W: Work,
+                failed: bool) -> bool:
+    """A stage whose closure failed (``failed``) or came out nearly singular: is it next to
+    a change point the step passes?  True when the whole Jacobian's smallest pivot is
+    below NEAR_SINGULAR at the stage (closed, or predicted when Newton failed) while the
+    step start is regular; its time and both pivots go into w.near for
+    :func:`pass_change`.  Nearly singular FGCs alone (a dead point of the coordinates)
+    are not: the FGCs are chosen again after the step.  S.q is left as it came."""
+    w = step_views(W.P)
+    nq = S.q.shape[0]
+    for a in range(nq):
+        if failed:
+            S.q[a] = w.qpred[a]
+        w.qkeep[a] = S.q[a]
+    ps = whole_pivot(KP, DP, S, gen, W)
+    near = False
+    if ps < NEAR_SINGULAR:
+        for a in range(nq):
+            S.q[a] = w.q0[a]
+        p0 = whole_pivot(KP, DP, S, gen, W)
+        if p0 >= NEAR_SINGULAR and p0 > 1.05 * ps and S.t[0] > w.t[0]:
+            w.near[0] = S.t[0]
+            w.near[1] = ps
+            w.near[2] = p0
+            w.near[3] = NEAR_SINGULAR
+            near = True
+        for a in range(nq):
+            S.q[a] = w.qkeep[a]
+    return near
+
+
+@njit(nrt=False)
+def near_noise(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, W: Work) -> bool:
+    """An attempt rejected by its error whose stages came near a change point (a stage's
+    smallest pivot below DIP of the largest met, and the whole Jacobian's there below
+    DIP of its regular size, falling from the step start): next to a change point the
+    stage derivatives carry the round-off of the small pivots (the velocity products
+    through J11^-1 twice: about u / p^2), which no shorter step removes.  True with
+    w.near set for :func:`pass_change`, the band doubled from the pivot met (S.q is
+    scratch: the attempt is rejected)."""
+    w = step_views(W.P)
+    nq = S.q.shape[0]
+    if not (w.pdip[0] < DIP * w.pmax[0] and w.wmax[0] > 0.0 and w.tdip[0] > w.t[0]):
+        return False
+    for a in range(nq):
+        S.q[a] = w.qdip[a]
+    ps = whole_pivot(KP, DP, S, gen, W)
+    if ps >= DIP * w.wmax[0]:
+        return False
+    for a in range(nq):
+        S.q[a] = w.q0[a]
+    p0 = whole_pivot(KP, DP, S, gen, W)
+    if p0 <= 1.05 * ps:
+        return False
+    w.near[0] = w.tdip[0]
+    w.near[1] = ps
+    w.near[2] = p0
+    w.near[3] = max(NEAR_SINGULAR, 2.0 * ps)
+    return True
+
+
+@njit(nrt=False)
+def pass_change(W: Work, nodes: np.ndarray) -> None:
+    """The next attempt's length after one refused next to a change point (w.near): the
+    whole Jacobian's smallest pivot taken linear in time from the step start to the
+    refused stage gives the time d to the change point and the half-width dz of the
+    band around it where no stage may fall (MARGIN times NEAR_SINGULAR of pivot).  The
+    length is the largest one up to the refused attempt's that puts the band between
+    two stage times ``nodes`` (fractions of the step, ascending from 0 to 1); else the
+    step to where the band fits between two stages of a short step; else the
+    shortest length that passes it, kept up to
+    LEAP_ERR times its tolerance (w.leap: so short a step is no less accurate than one
+    that reached the band).  After NEAR_TRIES refusals in a row the shortest length
+    that passes it, kept whatever its error (counted as forced)."""
+    w = step_views(W.P)
+    h = w.h[0]
+    w.leap[0] = False
+    w.nears[0] += 1
+    rate = (w.near[2] - w.near[1]) / (w.near[0] - w.t[0])
+    if not rate > 0.0:
+        w.hnext[0] = 0.5 * h
+        return
+    d = w.near[2] / rate
+    dz = MARGIN * w.near[3] / rate
+    best = 0.0
+    least = math.inf
+    reach = math.inf  # the nearest start from which a gap between two stages can hold the band
+    for i in range(nodes.shape[0] - 1):
+        lo = (d + dz) / nodes[i + 1]
+        hi = (d - dz) / nodes[i] if nodes[i] > 0.0 else math.inf
+        if nodes[i] > 0.0:
+            reach = min(reach, dz * (nodes[i + 1] + nodes[i]) / (nodes[i + 1] - nodes[i]))
+        if lo > hi:
+            continue
+        if lo <= h:
+            best = max(best, min(hi, h))
+        least = min(least, lo)
+    edge = d - 1.01 * reach
+    if best > 0.0 and w.nears[0] < NEAR_TRIES:
+        w.hnext[0] = best
+    elif edge > 0.5 * dz and w.nears[0] < NEAR_TRIES:
+        w.hnext[0] = min(edge, h)  # to where the band fits between two stages
+    elif least < math.inf:
+        w.hnext[0] = least
+        w.leap[0] = True
+    else:  # the start already inside the band
+        w.hnext[0] = 0.5 * h
+
+
+@njit(nrt=False)
+def hermite_posture(S: tuple, W: Work, tk: float) -> None:
+    """S.q = the joint variables at tk inside the step just taken: the quintic Hermite
+    interpolant through both ends' positions, rates and accelerations (the loops
+    not closed: the error is O(h^6), far below the pivots searched)."""
+    w = step_views(W.P)
+    t0 = w.tprev[0]
+    h = w.t[0] - t0
+    h0, h1, h2, h3, h4, h5 = quintic((tk - t0) / h)
+    for a in range(S.q.shape[0]):
+        S.q[a] = (h0 * w.qprev[a] + h * h1 * w.qdprev[a] + h * h * h2 * w.qddprev[a]
+                  + h3 * w.q0[a] + h * h4 * w.qd0[a] + h * h * h5 * w.qdd0[a])
+
+
+@njit(nrt=False)
+def crossing(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, W: Work) -> bool:
+    """Did the step just taken pass a change point?  Asked when a stage's closure had its
+    smallest pivot below DIP of the largest met (w.pdip): the whole Jacobian's
+    smallest pivot along the step (:func:`whole_pivot` at :func:`hermite_posture`) is
+    minimised by golden section; a change point when it falls below VANISH of its
+    regular size.  Its time, pivot and posture into w.tcross, w.pcross, w.qcross
+    (S.q is left at the step end)."""
+    w = step_views(W.P)
+    nq = S.q.shape[0]
+    found = False
+    if w.pdip[0] < DIP * w.pmax[0] and w.wmax[0] > 0.0:
+        a = w.tprev[0]
+        b = w.t[0]
+        g = 0.5 * (math.sqrt(5.0) - 1.0)
+        x1 = b - g * (b - a)
+        x2 = a + g * (b - a)
+        hermite_posture(S, W, x1)
+        f1 = whole_pivot(KP, DP, S, gen, W)
+        hermite_posture(S, W, x2)
+        f2 = whole_pivot(KP, DP, S, gen, W)
+        for _ in range(60):
+            if f1 <= f2:
+                b = x2
+                x2 = x1
+                f2 = f1
+                x1 = b - g * (b - a)
+                hermite_posture(S, W, x1)
+                f1 = whole_pivot(KP, DP, S, gen, W)
+            else:
+                a = x1
+                x1 = x2
+                f1 = f2
+                x2 = a + g * (b - a)
+                hermite_posture(S, W, x2)
+                f2 = whole_pivot(KP, DP, S, gen, W)
+            if b - a <= 1e-13 * max(1.0, abs(b)):
+                break
+        tc = x1 if f1 <= f2 else x2
+        pc = min(f1, f2)
+        # it vanishes inside the step (the step's ends are regular postures)
+        hermite_posture(S, W, w.tprev[0])
+        ends = whole_pivot(KP, DP, S, gen, W)
+        hermite_posture(S, W, w.t[0])
+        ends = min(ends, whole_pivot(KP, DP, S, gen, W))
+        if pc < VANISH * w.wmax[0] and pc < VANISH * ends:
+            hermite_posture(S, W, tc)
+            for k in range(nq):
+                w.qcross[k] = S.q[k]
+            w.tcross[0] = tc
+            w.pcross[0] = pc
+            found = True
+        for k in range(nq):
+            S.q[k] = w.q0[k]
+    w.pdip[0] = math.inf
+    return found
 
 
 @njit(nrt=False, inline="always")
@@ -648,7 +924,7 @@ def rk_stage(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarr
     w = step_views(W.P)
     dt = rk_stage_state(W, i)
     S.t[0] = w.t[0] + dt
-    st = close_stage(KP, DP, S, gen, W, dt, i)
+    st = close_stage(KP, DP, S, gen, W, dt, i, True)
     if st != OK:
         return st
     st = evaluate(KP, DP, YP, ZP, S, gen, W, i)
@@ -677,7 +953,8 @@ def rk_finish(S: tuple, W: Work) -> int:
         err += (h * ex / sx) ** 2 + (h * ev / sv) ** 2
     err = math.sqrt(err / max(2 * nF, 1))
     w.err[0] = err
-    if err <= 1.0 or h <= w.hmin[0] * (1.0 + 1e-12):
+    leap = w.leap[0] and (err <= LEAP_ERR or w.nears[0] >= NEAR_TRIES)
+    if err <= 1.0 or h <= w.hmin[0] * (1.0 + 1e-12) or leap:
         if err > 1.0:
             w.forced[0] += 1
         fac = 5.0 if err == 0.0 else min(5.0, max(0.2, 0.9 * err ** -0.2))
@@ -695,6 +972,12 @@ def _accept(S: tuple, W: Work, h: float) -> None:
     start; the old start is kept for the outputs inside the step."""
     w = step_views(W.P)
     w.tprev[0] = w.t[0]
+    for a in range(S.q.shape[0]):
+        w.qprev[a] = w.q0[a]
+        w.qdprev[a] = w.qd0[a]
+        w.qddprev[a] = w.qdd0[a]
+    w.nears[0] = 0
+    w.leap[0] = False
     for j in range(w.nF[0]):
         w.xprev[j] = w.x0[j]
         w.vprev[j] = w.v0[j]
@@ -719,6 +1002,7 @@ def rk_attempt(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.nda
     (Python) failed."""
     w = step_views(W.P)
     w.why[0] = OK
+    w.pdip[0] = math.inf
     for i in range(NSTAGE):
         w.mt[i] = w.t[0] + RK_C[i] * w.h[0]
     if motion_rows(W, NSTAGE) != OK:
@@ -726,11 +1010,28 @@ def rk_attempt(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.nda
     for i in range(1, NSTAGE):
         st = rk_stage(KP, DP, YP, ZP, S, gen, W, i)
         if st != OK:
-            w.why[0] = st
-            w.hnext[0] = 0.5 * w.h[0]
-            w.rejects[0] += 1
+            _refused(W, st, RK_C[:NSTAGE - 1])
             return REJECTED
-    return rk_finish(S, W)
+    code = rk_finish(S, W)
+    if code == REJECTED and near_noise(KP, DP, S, gen, W):
+        pass_change(W, RK_C[:NSTAGE - 1])
+    return code
+
+
+@njit(nrt=False, inline="always")
+def _refused(W: Work, st: int, nodes: np.ndarray) -> None:
+    """A stage of the attempt could not be closed or evaluated (``st``): the attempt is
+    rejected, the next one halved or, next to a change point, placed to pass it
+    (:func:`pass_change`, the stage times ``nodes``)."""
+    w = step_views(W.P)
+    w.why[0] = st
+    w.rejects[0] += 1
+    if st == NEAR_CHANGE:
+        pass_change(W, nodes)
+    else:
+        w.hnext[0] = 0.5 * w.h[0]
+        w.nears[0] = 0
+        w.leap[0] = False
 
 
 # ------------------------------------------------------------------ the book's step
@@ -993,7 +1294,7 @@ def book_finish(S: tuple, W: Work) -> int:
     if err != err:  # NaN: the step is unusable
         err = math.inf
     w.err[0] = err / tol
-    if err > 2.0 * tol and h > w.hmin[0] * (1.0 + 1e-12):
+    if err > 2.0 * tol and h > w.hmin[0] * (1.0 + 1e-12) and not w.leap[0]:
         w.hnext[0] = 0.5 * h
         w.rejects[0] += 1
         return REJECTED
@@ -1026,6 +1327,7 @@ def book_attempt(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
     when the step start cannot be linearized or a motion or law (Python) failed."""
     w = step_views(W.P)
     w.why[0] = OK
+    w.pdip[0] = math.inf
     h = w.h[0]
     for i in range(NSTAGE):  # rows: 0 the start, 1 the middle, the last the end
         w.mt[i] = w.t[0]
@@ -1044,19 +1346,17 @@ def book_attempt(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
     if st == OK:  # the middle, for the works
         book_mid(W)
         S.t[0] = w.t[0] + 0.5 * h
-        st = close_stage(KP, DP, S, gen, W, 0.5 * h, BOOK_MID)
+        st = close_stage(KP, DP, S, gen, W, 0.5 * h, BOOK_MID, True)
     if st == OK:
         st = evaluate(KP, DP, YP, ZP, S, gen, W, BOOK_MID)
     if st == OK:
         book_end(W)
         S.t[0] = w.t[0] + h
-        st = close_stage(KP, DP, S, gen, W, h, NSTAGE - 1)
+        st = close_stage(KP, DP, S, gen, W, h, NSTAGE - 1, True)
     if st == OK:
         st = evaluate(KP, DP, YP, ZP, S, gen, W, NSTAGE - 1)
     if st != OK:
-        w.why[0] = st
-        w.hnext[0] = 0.5 * w.h[0]
-        w.rejects[0] += 1
+        _refused(W, st, BOOK_C)
         return REJECTED
     return book_finish(S, W)
 
@@ -1073,11 +1373,26 @@ def begin_step(W: Work, t_end: float) -> float:
     h = max(h, w.hmin[0])
     if t + 1.1 * h >= t_end:
         h = t_end - t
+    if h < w.hnext[0]:  # cut: no longer placed to pass a change point
+        w.leap[0] = False
     w.h[0] = h
     return h
 
 
 # ------------------------------------------------------------------ outputs
+@njit(nrt=False, inline="always")
+def quintic(th: float) -> tuple[float, float, float, float, float, float]:
+    """The quintic Hermite basis at the fraction th of a step: the weights of the start's
+    position, rate x h, acceleration x h^2 and of the end's (exact for quintics)."""
+    t2 = th * th
+    t3 = t2 * th
+    t4 = t3 * th
+    t5 = t4 * th
+    return (1.0 - 10.0 * t3 + 15.0 * t4 - 6.0 * t5, th - 6.0 * t3 + 8.0 * t4 - 3.0 * t5,
+            0.5 * t2 - 1.5 * t3 + 1.5 * t4 - 0.5 * t5, 10.0 * t3 - 15.0 * t4 + 6.0 * t5,
+            -4.0 * t3 + 7.0 * t4 - 3.0 * t5, 0.5 * t3 - t4 + 0.5 * t5)
+
+
 @njit(nrt=False)
 def dense_point(W: Work, tk: float) -> float:
     """The FGC state at tk inside the step just taken, into w.xs, w.vs: the quintic
@@ -1092,13 +1407,7 @@ def dense_point(W: Work, tk: float) -> float:
     t2 = th * th
     t3 = t2 * th
     t4 = t3 * th
-    t5 = t4 * th
-    h0 = 1.0 - 10.0 * t3 + 15.0 * t4 - 6.0 * t5
-    h1 = th - 6.0 * t3 + 8.0 * t4 - 3.0 * t5
-    h2 = 0.5 * t2 - 1.5 * t3 + 1.5 * t4 - 0.5 * t5
-    h3 = 10.0 * t3 - 15.0 * t4 + 6.0 * t5
-    h4 = -4.0 * t3 + 7.0 * t4 - 3.0 * t5
-    h5 = 0.5 * t3 - t4 + 0.5 * t5
+    h0, h1, h2, h3, h4, h5 = quintic(th)
     d0 = -30.0 * t2 + 60.0 * t3 - 30.0 * t4
     d1 = 1.0 - 18.0 * t2 + 32.0 * t3 - 15.0 * t4
     d2 = th - 4.5 * t2 + 6.0 * t3 - 2.5 * t4
@@ -1230,7 +1539,7 @@ def dense_output(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
     w.mt[0] = tk
     st = motion_rows(W, 1)
     if st == OK:
-        st = close_stage(KP, DP, S, gen, W, dt, 0)
+        st = close_stage(KP, DP, S, gen, W, dt, 0, False)
     if st == OK:
         st = evaluate(KP, DP, YP, ZP, S, gen, W, 0)
     if st == OK:
@@ -1289,7 +1598,7 @@ def land(W: Work, O: Outputs) -> None:
     ends' accelerations carries the stiff modes its step damps)."""
     w = step_views(W.P)
     w.hprop[0] = 0.0
-    if O.k[0] < O.times.shape[0]:
+    if O.k[0] < O.times.shape[0] and not w.leap[0]:
         gap = O.times[O.k[0]] - w.t[0]
         h = w.h[0]
         if gap > 0.0 and h > 0.0:
@@ -1349,11 +1658,15 @@ def restart(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarra
     st = motion_rows(W, 1)
     if st == OK:
         S.t[0] = w.t[0]
-        st = close_stage(KP, DP, S, gen, W, 0.0, 0)
+        st = close_stage(KP, DP, S, gen, W, 0.0, 0, True)
     if st == OK:
         st = evaluate(KP, DP, YP, ZP, S, gen, W, 0)
     if st == OK:
         start_state(S, W)
+        # the regular size of the whole Jacobian's smallest pivot (change points)
+        w.wmax[0] = max(w.wmax[0], whole_pivot(KP, DP, S, gen, W))
+        for a in range(S.q.shape[0]):
+            S.q[a] = w.q0[a]
     return st
 
 
@@ -1361,15 +1674,21 @@ def restart(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarra
 def after_step(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | None,
                W: Work, O: Outputs, last: bool) -> int:
     """What follows an accepted step: on the last output time when it is the run's
-    last (``last``), the outputs it passed recorded, the FGCs chosen again when the
-    quality index has halved.  -1 to go on, STOPPED (an output failed) or SWITCHED."""
+    last (``last``), the outputs it passed recorded, a change point it passed
+    located (:func:`crossing`), the FGCs chosen again when the quality index has
+    halved.  -1 to go on, STOPPED (an output failed), SWITCHED (the caller also
+    records a change point when w.tcross[0] is not NaN) or CROSSED."""
     w = step_views(W.P)
     if last:
         w.t[0] = O.times[O.times.shape[0] - 1]
     if outputs(KP, DP, YP, ZP, S, gen, W, O) != OK:
         return STOPPED
+    w.tcross[0] = math.nan
+    crossed = crossing(KP, DP, S, gen, W)
     if w.qual0[0] < 0.5 * w.qref[0] and choose(KP, DP, S, gen, W):
         return SWITCHED
+    if crossed:
+        return CROSSED
     return -1
 
 

@@ -56,6 +56,11 @@ CHANGE = 1e-4
 #: of the regular one (Newton's postures next to a singular one are accurate only to
 #: about the square root of its tolerance, and the index with them)
 VANISH = 1e-5
+#: a posture whose smallest pivot (the Jacobian's entries are of order 1 in internal units)
+#: is below this is singular or so near it that its geometric derivatives are noise: the
+#: sweep keeps the tangent of the last regular posture, the time step steps over it
+#: (:func:`openimp.dynamics.stepping.pass_change`)
+NEAR_SINGULAR = 1e-4
 _GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
 
 

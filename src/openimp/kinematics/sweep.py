@@ -32,6 +32,7 @@ from openimp.kinematics.posture import (
     normalise_er,
 )
 from openimp.kinematics.rates import velocity, velocity_product
+from openimp.kinematics.singular import NEAR_SINGULAR
 from openimp.kinematics.track import tracker
 from openimp.limits import check_solver_options
 from openimp.results import DriverSwitch, Singularity, Trajectory
@@ -159,11 +160,6 @@ def _predict(DP: tuple, S: tuple, drive: tuple, k: int, frac: float, has_prev: b
 
 #: steps solved per call of the step loop when a sweep tells its progress
 CHUNK = 2000
-
-#: a posture whose smallest pivot (the Jacobian's entries are of order 1 in internal units)
-#: is below this is singular or so near it that its geometric derivatives are noise: the
-#: step keeps the tangent of the last regular posture
-NEAR_SINGULAR = 1e-4
 
 #: a converged step that moved across the tangent-continuous prediction by more than this
 #: fraction of the predicted step left the branch the motion came along (a branch change
