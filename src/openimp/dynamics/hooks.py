@@ -46,6 +46,8 @@ class Hook(IntEnum):
     SNAP = 3
     #: a step was accepted: did a switching function change sign over it?
     SWITCH = 4
+    #: the run's loop asks whether to return to Python (the clock: progress, Ctrl-C)
+    TICK = 5
 
 
 #: the handler's answers

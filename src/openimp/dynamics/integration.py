@@ -14,6 +14,7 @@ locates the events (:mod:`~openimp.dynamics.events`) by calling its attempts.
 from __future__ import annotations
 
 import math
+import time as _time
 from collections.abc import Mapping
 from typing import Any
 
@@ -53,7 +54,11 @@ WHY = {
                      "is discontinuous there, or the tolerance is below roundoff)",
     Stage.NEAR_CHANGE: "a change point (the loops' Jacobian singular, branches of motion "
                        "meeting) could not be passed",
+    Stage.NO_PROGRESS: f"{stp.MAX_REJECTS} attempts in a row were rejected: the step makes "
+                       "no progress (loosen the tolerance, or lower the smallest step)",
 }
+#: wall seconds between returns of a compiled run to Python (progress, Ctrl-C)
+TICK_SECONDS = 0.2
 
 
 def why(code: int) -> str:
@@ -181,6 +186,7 @@ class Run:
         self.run = stp.run_book if self.book else stp.run_rk
         self.names_before: tuple[str, ...] = ()
         self.ident = hooks.register(self.handle)
+        self.tick0 = _time.perf_counter()
         w.hook[0] = self.ident
 
     def close(self) -> None:
@@ -202,6 +208,8 @@ class Run:
             elif what == hooks.Hook.SNAP:
                 if not self.locating:
                     self.snap = [a.copy() for a in self.W.P] + [self.law.copy()]
+            elif what == hooks.Hook.TICK:
+                return int(_time.perf_counter() - self.tick0 > TICK_SECONDS)
             elif what == hooks.Hook.SWITCH:
                 self.g_end = self.switch_fns.signs(self.instant, float(self.w.t[0]))
                 if np.any(crossed(self.g_start, self.g_end)):
@@ -386,7 +394,10 @@ class Run:
             left = max_steps - (int(w.steps[0]) - s0)
             if left <= 0:
                 return RunEnd.CAPPED
+            self.tick0 = _time.perf_counter()
             code = int(self.run(*self.k, S, self.system.gen, self.W, O, left))
+            if code == RunEnd.PAUSED:
+                return code
             if code == RunEnd.EVENT:
                 code = self.event(O)
                 if code < 0:

@@ -258,7 +258,8 @@ def _integrate(r: Run, out: OutputBuffer, bar: Progress, max_steps: int) -> str:
                     break
                 steps0 = int(w.steps[0])
                 tnow = float(w.t[0])
-                if code in (RunEnd.CAPPED, RunEnd.FULL) and steps0 < max_steps:
+                if code == RunEnd.PAUSED or (code in (RunEnd.CAPPED, RunEnd.FULL)
+                                             and steps0 < max_steps):
                     continue
                 if code == RunEnd.CAPPED:
                     message = (f"t = {tnow:.6g} s: {max_steps} steps taken (max_steps); raise "

@@ -104,6 +104,8 @@ class Stage(IntEnum):
     #: a stage fell next to a change point (the whole loop Jacobian nearly singular):
     #: the attempt is retried with a length whose stages pass it (:func:`pass_change`)
     NEAR_CHANGE = 7
+    #: MAX_REJECTS attempts in a row were rejected: the run makes no progress
+    NO_PROGRESS = 8
 
 
 class Attempt(IntEnum):
@@ -133,6 +135,9 @@ class RunEnd(IntEnum):
     #: the step just accepted passed a change point (outputs recorded; its time and
     #: posture in w.tcross, w.qcross): the caller records it and calls again
     CROSSED = 6
+    #: the handler asked for Python (TICK: time to show progress and honour Ctrl-C); the
+    #: caller calls again
+    PAUSED = 7
 
 
 # the codes as plain integers for the kernels
@@ -142,9 +147,10 @@ UNDERFLOW, PYTHON, NEAR_CHANGE = int(Stage.UNDERFLOW), int(Stage.PYTHON), int(St
 ACCEPTED, REJECTED, FAILED = int(Attempt.ACCEPTED), int(Attempt.REJECTED), int(Attempt.FAILED)
 REACHED, SWITCHED, STOPPED = int(RunEnd.REACHED), int(RunEnd.SWITCHED), int(RunEnd.STOPPED)
 CAPPED, FULL, EVENT = int(RunEnd.CAPPED), int(RunEnd.FULL), int(RunEnd.EVENT)
-CROSSED = int(RunEnd.CROSSED)
+CROSSED, PAUSED = int(RunEnd.CROSSED), int(RunEnd.PAUSED)
+NO_PROGRESS = int(Stage.NO_PROGRESS)
 H_MOTION_ROWS, H_LAWS, H_LAW_TERMS = int(Hook.MOTION), int(Hook.LAWS), int(Hook.LAW_TERMS)
-H_SNAP, H_SWITCH = int(Hook.SNAP), int(Hook.SWITCH)
+H_SNAP, H_SWITCH, H_TICK = int(Hook.SNAP), int(Hook.SWITCH), int(Hook.TICK)
 
 # Dormand-Prince 5(4): nodes, stage weights (row 6 = the 5th-order weights, FSAL) and the
 # error weights b - b^ (b^ the 4th-order weights)
@@ -181,6 +187,11 @@ WATCH = 10.0
 #: stages are placed at least this many times NEAR_SINGULAR of pivot away from a change
 #: point (the pivot taken linear in time there)
 MARGIN = 1.5
+#: attempts rejected in a row after which a run stops (NO_PROGRESS): every loop of the
+#: step ends
+MAX_REJECTS = 1000
+#: attempts between two questions to the handler's clock (Hook.TICK)
+TICK_EVERY = 8
 #: attempts refused in a row next to a change point before the step is only halved
 NEAR_TRIES = 6
 #: a step placed to pass a change point is kept up to this error (against the
@@ -302,6 +313,9 @@ WORK_FIELDS: tuple[Field, ...] = (
     Field("evals", "i", (1,), "evaluations of the equations"),
     Field("closes", "i", (1,), "closures of the loops"),
     Field("forced", "i", (1,), "steps accepted at the smallest length above the tolerance"),
+    Field("atmin", "b", (1,), "the attempt's proposal was the smallest step (it is kept "
+          "whatever its error, even when stretched to land on an output)"),
+    Field("inrow", "i", (1,), "attempts rejected since the last accepted step"),
     Field("err", "f", (1,), "error of the last attempt against its tolerance"),
     Field("smallest", "f", (1,), "smallest step taken"),
     Field("largest", "f", (1,), "largest step taken"),
@@ -314,7 +328,7 @@ WORK_FIELDS: tuple[Field, ...] = (
     Field("pmin", "f", (1,), "smallest pivot of the last closure (FGCs, SGCs held)"),
     Field("pmax", "f", (1,), "the largest pmin met (its regular size)"),
     Field("wmax", "f", (1,), "the whole Jacobian's smallest pivot at the last restart "
-          "(its regular size; only the SGCs held)"),
+          "(its regular size; nothing held)"),
     Field("pdip", "f", (1,), "the smallest pmin over the stages of the attempt"),
     Field("tdip", "f", (1,), "the time of that stage"),
     Field("qdip", "f", ("nq",), "its posture"),
@@ -466,14 +480,17 @@ def _close(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, W: Work,
 # ------------------------------------------------------------------ change points
 @njit(nrt=False)
 def whole_pivot(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, W: Work) -> float:
-    """The smallest pivot of the whole loop Jacobian at S.q, only the SGCs (S.sgc) held:
-    it vanishes at a change point, where the mechanism gains freedoms and branches of
-    motion meet (book 6.9), whatever the FGCs; a pivot lost counts as the entry left."""
+    """The smallest pivot of the whole loop Jacobian at S.q, nothing held: it vanishes at a
+    change point, where the mechanism gains freedoms and branches of motion meet (book
+    6.9), whatever the coordinates, and not at a dead point of the SGCs (a limit of
+    travel of a driven coordinate); a pivot lost counts as the entry left."""
     w = step_views(W.P)
     d = data_views(DP)
     position(KP, DP, S, gen, 1)
     jacobian(KP, DP, S, gen)
-    rank, _, rest = eliminate(DP, S.sgc, w.ptol[0])
+    for a in range(S.q.shape[0]):
+        w.keep[a] = False
+    rank, _, rest = eliminate(DP, w.keep, w.ptol[0])
     if rank < S.q.shape[0] - w.nF[0] - w.scols.shape[0]:
         return rest
     p = math.inf
@@ -552,8 +569,7 @@ def pass_change(W: Work, nodes: np.ndarray) -> None:
     band around it where no stage may fall (MARGIN times NEAR_SINGULAR of pivot).  The
     length is the largest one up to the refused attempt's that puts the band between
     two stage times ``nodes`` (fractions of the step, ascending from 0 to 1); else the
-    step to where the band fits between two stages of a short step; else the
-    shortest length that passes it, kept up to
+    step to the band's edge; else the shortest length that passes it, kept up to
     LEAP_ERR times its tolerance (w.leap: so short a step is no less accurate than one
     that reached the band).  After NEAR_TRIES refusals in a row the shortest length
     that passes it, kept whatever its error (counted as forced)."""
@@ -569,22 +585,18 @@ def pass_change(W: Work, nodes: np.ndarray) -> None:
     dz = MARGIN * w.near[3] / rate
     best = 0.0
     least = math.inf
-    reach = math.inf  # the nearest start from which a gap between two stages can hold the band
     for i in range(nodes.shape[0] - 1):
         lo = (d + dz) / nodes[i + 1]
         hi = (d - dz) / nodes[i] if nodes[i] > 0.0 else math.inf
-        if nodes[i] > 0.0:
-            reach = min(reach, dz * (nodes[i + 1] + nodes[i]) / (nodes[i + 1] - nodes[i]))
         if lo > hi:
             continue
         if lo <= h:
             best = max(best, min(hi, h))
         least = min(least, lo)
-    edge = d - 1.01 * reach
     if best > 0.0 and w.nears[0] < NEAR_TRIES:
         w.hnext[0] = best
-    elif edge > 0.5 * dz and w.nears[0] < NEAR_TRIES:
-        w.hnext[0] = min(edge, h)  # to where the band fits between two stages
+    elif d - dz > 1e-12 * max(1.0, abs(w.t[0])) and w.nears[0] < NEAR_TRIES:
+        w.hnext[0] = min(d - dz, h)  # to the band's edge
     elif least < math.inf:
         w.hnext[0] = least
         w.leap[0] = True
@@ -954,7 +966,7 @@ def rk_finish(S: tuple, W: Work) -> int:
     err = math.sqrt(err / max(2 * nF, 1))
     w.err[0] = err
     leap = w.leap[0] and (err <= LEAP_ERR or w.nears[0] >= NEAR_TRIES)
-    if err <= 1.0 or h <= w.hmin[0] * (1.0 + 1e-12) or leap:
+    if err <= 1.0 or h <= w.hmin[0] * (1.0 + 1e-12) or w.atmin[0] or leap:
         if err > 1.0:
             w.forced[0] += 1
         fac = 5.0 if err == 0.0 else min(5.0, max(0.2, 0.9 * err ** -0.2))
@@ -978,6 +990,7 @@ def _accept(S: tuple, W: Work, h: float) -> None:
         w.qddprev[a] = w.qdd0[a]
     w.nears[0] = 0
     w.leap[0] = False
+    w.inrow[0] = 0
     for j in range(w.nF[0]):
         w.xprev[j] = w.x0[j]
         w.vprev[j] = w.v0[j]
@@ -1294,7 +1307,7 @@ def book_finish(S: tuple, W: Work) -> int:
     if err != err:  # NaN: the step is unusable
         err = math.inf
     w.err[0] = err / tol
-    if err > 2.0 * tol and h > w.hmin[0] * (1.0 + 1e-12) and not w.leap[0]:
+    if err > 2.0 * tol and h > w.hmin[0] * (1.0 + 1e-12) and not (w.leap[0] or w.atmin[0]):
         w.hnext[0] = 0.5 * h
         w.rejects[0] += 1
         return REJECTED
@@ -1343,6 +1356,9 @@ def book_attempt(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
             w.why[0] = st
             return FAILED
     st = book_predict(W)
+    if st == TOO_LARGE and w.atmin[0]:  # at the smallest step the displacement is kept too
+        w.forced[0] += 1
+        st = OK
     if st == OK:  # the middle, for the works
         book_mid(W)
         S.t[0] = w.t[0] + 0.5 * h
@@ -1371,6 +1387,7 @@ def begin_step(W: Work, t_end: float) -> float:
     t = w.t[0]
     h = min(w.hnext[0], w.hmax[0])
     h = max(h, w.hmin[0])
+    w.atmin[0] = h <= w.hmin[0] * (1.0 + 1e-12)
     if t + 1.1 * h >= t_end:
         h = t_end - t
     if h < w.hnext[0]:  # cut: no longer placed to pass a change point
@@ -1593,7 +1610,9 @@ def land(W: Work, O: Outputs) -> None:
     """The book's steps end on the output times: the time to the next output is cut
     into equal steps of at most 1.1 times the proposed one (no short remainder
     step, whose length would set the next proposal; never below the smallest step
-    unless the gap is; the cut proposal kept in w.hprop[0] for :func:`book_finish`).
+    unless the gap is, or the proposal is the smallest step: then never above it,
+    so that a step kept whatever its error is no longer than the smallest; the cut
+    proposal kept in w.hprop[0] for :func:`book_finish`).
     Its outputs are then step ends, never interpolated (an interpolant through the
     ends' accelerations carries the stiff modes its step damps)."""
     w = step_views(W.P)
@@ -1603,8 +1622,8 @@ def land(W: Work, O: Outputs) -> None:
         h = w.h[0]
         if gap > 0.0 and h > 0.0:
             n = max(1.0, math.ceil(gap / (1.1 * h)))
-            if w.hmin[0] > 0.0 and gap / n < w.hmin[0]:  # never below the smallest step
-                n = max(1.0, math.floor(gap / w.hmin[0]))
+            if w.hmin[0] > 0.0 and gap / n < w.hmin[0] and not w.atmin[0]:
+                n = max(1.0, math.floor(gap / w.hmin[0]))  # never below the smallest step
             w.h[0] = gap / n
             if w.h[0] < h:  # cut to land: the next step may go back to the proposal
                 w.hprop[0] = h
@@ -1702,9 +1721,13 @@ def _after(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray
         return STOPPED
     if code == REJECTED:
         h = w.h[0]
-        if h <= w.hmin[0] * (1.0 + 1e-12) or h <= 1e-14 * max(1.0, abs(w.t[0])):
+        w.inrow[0] += 1
+        if h <= w.hmin[0] * (1.0 + 1e-12) or w.atmin[0] or h <= 1e-14 * max(1.0, abs(w.t[0])):
             if w.why[0] == OK:
                 w.why[0] = UNDERFLOW
+            return STOPPED
+        if w.inrow[0] >= MAX_REJECTS:
+            w.why[0] = NO_PROGRESS
             return STOPPED
         return -1
     if w.events[0]:
@@ -1742,13 +1765,19 @@ def run_rk(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray
     :func:`outputs`) into the rows of O.rows from O.k[0] - O.base (at most O.cap
     rows).  Returns REACHED (every output done); SWITCHED when the FGCs changed at
     w.t[0] (the caller records it and calls again); STOPPED when a step could not be
-    taken even at the smallest length (w.why[0] says why); CAPPED after max_steps
-    steps; FULL when the next step's outputs would not fit; EVENT when a switching
-    function changed sign over the step just accepted."""
+    taken even at the smallest length or after MAX_REJECTS rejections in a row
+    (w.why[0] says why); CAPPED after max_steps steps; FULL when the next step's
+    outputs would not fit; EVENT when a switching function changed sign over the step
+    just accepted; PAUSED when the handler's clock asks for Python (:data:`Hook.TICK`,
+    every TICK_EVERY attempts: progress and Ctrl-C)."""
     w = step_views(W.P)
     s0 = w.steps[0]
     t_end = O.times[O.times.shape[0] - 1]
+    n = 0
     while O.k[0] < O.times.shape[0]:
+        n += 1
+        if n % TICK_EVERY == 0 and call_hook(w.hook[0], H_TICK) != 0:
+            return PAUSED
         code = _before(W, O, False)
         if code >= 0:
             return code
@@ -1770,7 +1799,11 @@ def run_book(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarr
     w = step_views(W.P)
     s0 = w.steps[0]
     t_end = O.times[O.times.shape[0] - 1]
+    n = 0
     while O.k[0] < O.times.shape[0]:
+        n += 1
+        if n % TICK_EVERY == 0 and call_hook(w.hook[0], H_TICK) != 0:
+            return PAUSED
         code = _before(W, O, True)
         if code >= 0:
             return code
