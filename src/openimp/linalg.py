@@ -164,6 +164,16 @@ def full_pivot(A: np.ndarray, n: int, eps: float, rleft: np.ndarray, cleft: np.n
         npiv += 1
     return npiv
 
+@njit(nrt=False, inline="always")
+def _rotate(A: np.ndarray, n: int, p: int, q: int, c: float, s: float) -> None:
+    """Columns p and q of A[:n] turned by the plane rotation (c, s): A <- A R."""
+    for k in range(n):
+        a = A[k, p]
+        b = A[k, q]
+        A[k, p] = c * a - s * b
+        A[k, q] = s * a + c * b
+
+
 @njit(nrt=False)
 def sym_eigen(K: np.ndarray, n: int, W: np.ndarray, V: np.ndarray, lam: np.ndarray) -> None:
     """Eigenvalues lam[:n] in ascending order and eigenvectors V[:n, :n] (columns,
@@ -197,21 +207,9 @@ def sym_eigen(K: np.ndarray, n: int, W: np.ndarray, V: np.ndarray, lam: np.ndarr
                 t = (1.0 if theta >= 0 else -1.0) / (abs(theta) + np.sqrt(theta * theta + 1.0))
                 c = 1.0 / np.sqrt(t * t + 1.0)
                 s = t * c
-                for k in range(n):
-                    a = W[k, p]
-                    b = W[k, q]
-                    W[k, p] = c * a - s * b
-                    W[k, q] = s * a + c * b
-                for k in range(n):
-                    a = W[p, k]
-                    b = W[q, k]
-                    W[p, k] = c * a - s * b
-                    W[q, k] = s * a + c * b
-                for k in range(n):
-                    a = V[k, p]
-                    b = V[k, q]
-                    V[k, p] = c * a - s * b
-                    V[k, q] = s * a + c * b
+                _rotate(W, n, p, q, c, s)  # W <- W R, then R^T W: its rows as columns
+                _rotate(W.T, n, p, q, c, s)
+                _rotate(V, n, p, q, c, s)
     for i in range(n):
         lam[i] = W[i, i]
     for i in range(n):  # selection sort, columns of V along
