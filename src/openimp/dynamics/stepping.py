@@ -51,6 +51,7 @@ import numpy as np
 
 from openimp._jit import njit, packed_views
 from openimp.dynamics.ballstep import (
+    ball_axes,
     ball_blocks,
     ball_marks,
     ball_moments,
@@ -197,7 +198,10 @@ NEAR_TRIES = 6
 #: a step placed to pass a change point is kept up to this error (against the
 #: tolerance): the stages next to it carry round-off no shorter step removes
 LEAP_ERR = 100.0
-
+#: the book's force error is a difference of inertia terms: below this fraction of
+#: the largest of them it is round-off, whatever ZERO (FORCE)'s percentage of the
+#: forces met (none, in a free steady spin)
+FORCE_ROUNDOFF = 1e-10
 
 
 
@@ -298,6 +302,9 @@ WORK_FIELDS: tuple[Field, ...] = (
     Field("Minv", "f", ("nq", "nq"), "M_FF^-1"),
     Field("ball", "i", ("nq", 4), "the ball joints the book's step takes in local rotation "
           "coordinates (ballstep.ball_blocks; -1 in the row after the last, from the start)"),
+    Field("bax", "f", ("nq", 3, 3), "per ball of ``ball`` the axes of its angles "
+          "(ballstep.ball_axes)"),
+    Field("bs", "f", (12, 12), "scratch of the balls' angles"),
     Field("wq", "f", (3,), "powers at the middle (book) or over the Gauss nodes"),
     Field("fscale", "f", (1,), "largest generalized force met (force error percent)"),
     # the step just taken, for the outputs inside it
@@ -1127,7 +1134,8 @@ def book_linearize(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
             return SINGULAR_MASS
         for i in range(nF):
             w.Minv[i, j] = w.aF[i]
-    ball_blocks(KP, w.role, w.fcols, nF, w.ball)
+    if ball_blocks(KP, w.role, w.fcols, nF, w.ball) > 0:
+        ball_axes(KP, YP, w.q0, w.v0, w.ball, w.bax, w.fcols, w.bs)
     w.have_lin[0] = True
     return OK
 
@@ -1191,7 +1199,7 @@ def book_predict(W: Work) -> int:
     A[2 * nF + 2, 2 * nF + 1] = tau
     balls = w.ball[0, 0] >= 0
     if balls:  # ball joints in their rotation vectors (the e of a steady spin are not linear)
-        to_local(A, nF, tau, w.ball, w.fcols, w.q0, w.v0, w.X3)
+        to_local(A, nF, tau, w.ball, w.bax, w.fcols, w.q0, w.v0, w.bs)
     expm(A, n, w.Eb, w.X2, w.X3)
     E = w.Eb
     big = 0.0
@@ -1214,8 +1222,8 @@ def book_predict(W: Work) -> int:
                 acc += Minv[i, m] * (g[0, m] + g[1, m] * tau + 0.5 * g[2, m] * tau * tau)
         w.ap[i] = acc
     if balls:
-        from_local(nF, w.ball, w.fcols, w.q0, w.v0, w.X1[1], w.X1[0], w.ap,
-                   (w.xs, w.vs, w.ap), True, w.X3)
+        from_local(w.ball, w.bax, w.fcols, w.q0, w.v0, w.X1[1], w.X1[0], w.ap,
+                   (w.xs, w.vs, w.ap), True, w.bs)
     if big > w.xmax[0]:
         return TOO_LARGE
     return OK
@@ -1240,8 +1248,8 @@ def book_mid(W: Work) -> None:
         w.vs[i] = w.v0[i] + w.Eb[i, 2 * nF]
         w.xs[i] = w.x0[i] + w.Eb[nF + i, 2 * nF]
     if w.ball[0, 0] >= 0:
-        from_local(nF, w.ball, w.fcols, w.q0, w.v0, w.Eb[nF:2 * nF, 2 * nF],
-                   w.Eb[:nF, 2 * nF], w.ap, (w.xs, w.vs, w.ap), False, w.X3)
+        from_local(w.ball, w.bax, w.fcols, w.q0, w.v0, w.Eb[nF:2 * nF, 2 * nF],
+                   w.Eb[:nF, 2 * nF], w.ap, (w.xs, w.vs, w.ap), False, w.bs)
 
 
 @njit(nrt=False)
@@ -1263,7 +1271,8 @@ def book_finish(S: tuple, W: Work) -> int:
     (force, percent of the largest generalized force met so far): above twice the
     limit the step is repeated with half the length; above the limit it is kept
     and the next one halved; below 1/8 of it the next one doubles (up to the
-    largest step).  Returns ACCEPTED or REJECTED."""
+    largest step).  The limit is never below the round-off of eps (FORCE_ROUNDOFF
+    of the inertia terms M_FF psi''_F).  Returns ACCEPTED or REJECTED."""
     w = step_views(W.P)
     nF = w.nF[0]
     h = w.h[0]
@@ -1279,20 +1288,24 @@ def book_finish(S: tuple, W: Work) -> int:
         V[3, i] = 0.0
         w.keep[i] = False
     if balls:
-        from_local(nF, w.ball, w.fcols, w.q0, w.v0, w.X1[1], w.X1[0], V[2],
-                   (V[4], V[5], V[3]), True, w.X3)
+        from_local(w.ball, w.bax, w.fcols, w.q0, w.v0, w.X1[1], w.X1[0], V[2],
+                   (V[4], V[5], V[3]), True, w.bs)
         ball_marks(w.ball, w.keep)
+    noise = 0.0  # the force error's round-off: the inertia terms it is the difference of
     for i in range(nF):
         e = 0.0
         f = 0.0
+        g = 0.0
         for j in range(nF):
             mij = M[w.iF[i], w.iF[j]]
             e += mij * (w.aF[j] - w.ap[j])
             f += mij * (w.aF[j] - V[3, j])
+            g += abs(mij * w.aF[j])
         V[0, i] = e
         V[1, i] = f
+        noise = max(noise, FORCE_ROUNDOFF * g * w.gscale[w.fcols[i]])
     if balls:
-        ball_moments(nF, w.ball, w.fcols, w.q0, w.X1[1], V, w.X3)
+        ball_moments(w.ball, w.bax, w.fcols, w.q0, w.X1[1], V, w.bs)
     for i in range(nF):
         gs = w.gscale[w.fcols[i]]
         err = max(err, abs(V[0, i]) * gs)
@@ -1304,6 +1317,7 @@ def book_finish(S: tuple, W: Work) -> int:
     pct = 0.01 * w.fpct[0] * w.fscale[0]
     if pct > 0.0:
         tol = min(tol, pct)
+    tol = max(tol, noise)  # a percentage of no force at all (a free steady spin)
     if err != err:  # NaN: the step is unusable
         err = math.inf
     w.err[0] = err / tol
