@@ -46,7 +46,9 @@ WHY = {
     Stage.NO_CLOSURE: "the loops cannot be closed (Newton did not converge): a limit of "
                       "travel, a singular posture or a motion too fast for the step",
     Stage.SINGULAR_MASS: "the mass matrix of the free coordinates is singular (IMP's ZERO "
-                         "(INERTIA)): a massless part can move alone; give it mass or inertia",
+                         "(INERTIA)): a massless part can move alone, or free coordinates "
+                         "turn about one line (a gimbal lock); give it mass or inertia, or "
+                         "use a SPHERE for the gimbal",
     Stage.LOST_COORDINATES: "the free coordinates no longer describe the mechanism (a "
                             "singular posture)",
     Stage.TOO_LARGE: "the step stays too large even at the smallest step",

@@ -202,6 +202,11 @@ LEAP_ERR = 100.0
 #: the largest of them it is round-off, whatever ZERO (FORCE)'s percentage of the
 #: forces met (none, in a free steady spin)
 FORCE_ROUNDOFF = 1e-10
+#: a step whose stages see the free coordinates' mass matrix this close to singular
+#: (the smallest Cholesky pivot of M_FF over its own diagonal entry: the squared sine
+#: of the angle between a coordinate's inertia and the others', 6 degrees) is watched
+#: for a dip through a singular posture (:func:`mass_dip`)
+MASS_WATCH = 1e-2
 
 
 
@@ -300,6 +305,10 @@ WORK_FIELDS: tuple[Field, ...] = (
     Field("iS", "i", ("nq",), "places of the SGCs in it"),
     Field("gF", "f", (3, "nq"), "forcing terms of the FGC rows"),
     Field("Minv", "f", ("nq", "nq"), "M_FF^-1"),
+    Field("mpiv", "f", (NSTAGE,), "smallest Cholesky pivot of M_FF over its own diagonal "
+          "entry at each stage (mass_dip)"),
+    Field("mnow", "f", (1,), "the same at the last evaluation (a stage, or an output)"),
+    Field("mdiag", "f", ("nq",), "the diagonal of M_FF before its factorization"),
     Field("ball", "i", ("nq", 4), "the ball joints the book's step takes in local rotation "
           "coordinates (ballstep.ball_blocks; -1 in the row after the last, from the start)"),
     Field("bax", "f", ("nq", 3, 3), "per ball of ``ball`` the axes of its angles "
@@ -774,8 +783,11 @@ def evaluate(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarr
     if w.mscale[0] <= 0.0:  # the first evaluation with these coordinates
         for i in range(nF):
             w.mscale[0] = max(w.mscale[0], w.Lc[i, i])
+    for i in range(nF):
+        w.mdiag[i] = w.Lc[i, i]
     if not cholesky_solve(w.Lc, nF, w.rhs, w.aF, w.mtol[0], w.mscale[0]):
         return SINGULAR_MASS
+    w.mnow[0] = mass_pivot(w.Lc, w.mdiag, nF)
     i = 0
     s = 0
     for k in range(nf):
@@ -949,6 +961,7 @@ def rk_stage(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarr
     st = evaluate(KP, DP, YP, ZP, S, gen, W, i)
     if st == OK:
         keep_stage(S, W, i)
+        w.mpiv[i] = w.mnow[0]
     return st
 
 
@@ -998,6 +1011,7 @@ def _accept(S: tuple, W: Work, h: float) -> None:
     w.nears[0] = 0
     w.leap[0] = False
     w.inrow[0] = 0
+    w.mpiv[0] = w.mpiv[NSTAGE - 1]
     for j in range(w.nF[0]):
         w.xprev[j] = w.x0[j]
         w.vprev[j] = w.v0[j]
@@ -1032,10 +1046,65 @@ def rk_attempt(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.nda
         if st != OK:
             _refused(W, st, RK_C[:NSTAGE - 1])
             return REJECTED
+    if mass_dip(W, RK_C):
+        _refused(W, SINGULAR_MASS, RK_C[:NSTAGE - 1])
+        return REJECTED
     code = rk_finish(S, W)
     if code == REJECTED and near_noise(KP, DP, S, gen, W):
         pass_change(W, RK_C[:NSTAGE - 1])
     return code
+
+
+@njit(nrt=False, inline="always")
+def mass_pivot(Lc: np.ndarray, mdiag: np.ndarray, n: int) -> float:
+    """min_j L_jj^2 / M_jj of the Cholesky factor L (Lc, n x n) of M_FF whose diagonal
+    was mdiag (n,): 1 for orthogonal coordinates, the squared sine of the smallest angle
+    between a coordinate's inertia and the span of the ones before it."""
+    p = 1.0
+    for j in range(n):
+        if mdiag[j] > 0.0:
+            p = min(p, Lc[j, j] * Lc[j, j] / mdiag[j])
+    return p
+
+
+@njit(nrt=False, inline="always")
+def _row(nodes: np.ndarray, i: int) -> int:
+    """The stage row of the i-th of ``nodes``: rk's seven, or the book's three (start,
+    middle, end)."""
+    if nodes.shape[0] == NSTAGE:
+        return i
+    return BOOK_MID if i == 1 else NSTAGE - 1
+
+
+@njit(nrt=False)
+def mass_dip(W: Work, nodes: np.ndarray) -> bool:
+    """True when the mass matrix of the free coordinates passes through a singular posture
+    inside the step, read from its smallest pivot at the stages (w.mpiv; the stages at
+    the fractions ``nodes`` of the step, the last the end).  Next to a singular posture
+    the square root s of the pivot is the distance from it, |a + b t|: a V in time whose
+    vertex is inside the step exactly when some stage at 0 < c < 1 has
+    s_c < max((1 - c) s_0, c s_1) (the line through it and an end reaches zero inside
+    the step), which no straight approach passes.  Asked only where a pivot is below
+    MASS_WATCH; a regular minimum passes the test once the step is short.  The step is
+    then refused as SINGULAR_MASS, so that both methods shorten their steps into the
+    singular posture and stop there (the book's long steps passed it silently)."""
+    w = step_views(W.P)
+    n = nodes.shape[0]
+    last = NSTAGE - 1
+    lo = min(w.mpiv[0], w.mpiv[last])
+    for i in range(1, n - 1):
+        lo = min(lo, w.mpiv[_row(nodes, i)])
+    if lo >= MASS_WATCH:
+        return False
+    s0 = math.sqrt(max(w.mpiv[0], 0.0))
+    s1 = math.sqrt(max(w.mpiv[last], 0.0))
+    for i in range(1, n - 1):
+        c = nodes[i]
+        if 0.0 < c < 1.0:
+            sc = math.sqrt(max(w.mpiv[_row(nodes, i)], 0.0))
+            if sc < max((1.0 - c) * s0, c * s1):
+                return True
+    return False
 
 
 @njit(nrt=False, inline="always")
@@ -1134,6 +1203,9 @@ def book_linearize(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
             return SINGULAR_MASS
         for i in range(nF):
             w.Minv[i, j] = w.aF[i]
+    for i in range(nF):
+        w.mdiag[i] = M[w.iF[i], w.iF[i]]
+    w.mpiv[0] = mass_pivot(w.Lc, w.mdiag, nF)
     if ball_blocks(KP, w.role, w.fcols, nF, w.ball) > 0:
         ball_axes(KP, YP, w.q0, w.v0, w.ball, w.bax, w.fcols, w.bs)
     w.have_lin[0] = True
@@ -1379,12 +1451,16 @@ def book_attempt(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
         st = close_stage(KP, DP, S, gen, W, 0.5 * h, BOOK_MID, True)
     if st == OK:
         st = evaluate(KP, DP, YP, ZP, S, gen, W, BOOK_MID)
+        w.mpiv[BOOK_MID] = w.mnow[0]
     if st == OK:
         book_end(W)
         S.t[0] = w.t[0] + h
         st = close_stage(KP, DP, S, gen, W, h, NSTAGE - 1, True)
     if st == OK:
         st = evaluate(KP, DP, YP, ZP, S, gen, W, NSTAGE - 1)
+        w.mpiv[NSTAGE - 1] = w.mnow[0]
+    if st == OK and mass_dip(W, BOOK_C):
+        st = SINGULAR_MASS
     if st != OK:
         _refused(W, st, BOOK_C)
         return REJECTED
@@ -1694,6 +1770,7 @@ def restart(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarra
         st = close_stage(KP, DP, S, gen, W, 0.0, 0, True)
     if st == OK:
         st = evaluate(KP, DP, YP, ZP, S, gen, W, 0)
+        w.mpiv[0] = w.mnow[0]
     if st == OK:
         start_state(S, W)
         # the regular size of the whole Jacobian's smallest pivot (change points)
