@@ -221,6 +221,73 @@ def test_output_names_cannot_leave_the_folder(tmp_path: Path) -> None:
     assert os.listdir(outside) == []
 
 
+def test_fifos_devices_and_links_are_written_into_not_replaced(tmp_path: Path) -> None:
+    """issue 30 N2: --json to a FIFO writes into it (a reader gets the JSON), to a
+    character device writes into it (/dev/null; /dev/full fails with its reason and
+    stays a device), through a symbolic link replaces the link's target and keeps the
+    link; a socket is refused, named."""
+    import socket
+    import threading
+
+    d = deck(tmp_path, "DATA POSITION (A) = 0, 30, 2\nLIST POSITION (A)\nEXECUTE\nEND\n")
+    fifo = tmp_path / "p"
+    os.mkfifo(fifo)
+    got: list[bytes] = []
+    reader = threading.Thread(target=lambda: got.append(fifo.read_bytes()), daemon=True)
+    reader.start()
+    status, _, err = run_cli("run", d, "--quiet", "--json", fifo)
+    reader.join(timeout=300)
+    assert status == 0, err
+    assert stat.S_ISFIFO(os.lstat(fifo).st_mode)
+    assert json.loads(got[0])["runs"][0]["tables"]
+    target = tmp_path / "target.json"
+    target.write_text("old")
+    link = tmp_path / "s"
+    link.symlink_to(target.name)
+    status, _, err = run_cli("run", d, "--quiet", "--json", link)
+    assert status == 0, err
+    assert link.is_symlink() and json.loads(target.read_text())["runs"]
+    status, _, err = run_cli("run", d, "--quiet", "--json", os.devnull)
+    assert status == 0, err
+    if os.path.exists("/dev/full"):
+        status, _, err = run_cli("run", d, "--quiet", "--json", "/dev/full")
+        assert status == 1 and "--json: the file '/dev/full' cannot be written (" in err
+        assert stat.S_ISCHR(os.lstat("/dev/full").st_mode)
+    sock = tmp_path / "sock"
+    srv = socket.socket(socket.AF_UNIX)
+    try:
+        srv.bind(str(sock))
+        with pytest.raises(OutputError, match="is a socket, which is not written"):
+            files.atomic_write(sock, "x")
+    finally:
+        srv.close()
+    assert stat.S_ISSOCK(os.lstat(sock).st_mode)
+    no_temp_files(tmp_path)
+
+
+def test_outputs_never_replace_the_runs_inputs(tmp_path: Path) -> None:
+    """issue 30 N8: even with --overwrite, PRINT ON naming the deck, STORE INPUT naming a
+    recalled file and --json naming the deck are refused with the statement's place;
+    the inputs stay as they were and the other outputs are written."""
+    (tmp_path / "part.imp").write_text("DATA POSITION (A) = 0, 30, 2\n")
+    d = deck(tmp_path, "RECALL INPUT = part.imp\nPRINT ON = deck.imp\n"
+             "STORE INPUT = part.imp\nLIST POSITION (A)\nEXECUTE\nEND\n")
+    before = d.read_text()
+    status, _, err = run_cli("run", d, "--quiet", "--overwrite", "--json", d,
+                             "--csv", tmp_path / "c")
+    assert status == 1
+    assert d.read_text() == before
+    assert (tmp_path / "part.imp").read_text() == "DATA POSITION (A) = 0, 30, 2\n"
+    assert (f"{d}:{HEAD_LINES + 2}: the file '{d}' is an input of this run (the deck, a "
+            "recalled file or a TABLE it reads), so it is kept") in err
+    assert f"the file '{tmp_path / 'part.imp'}' is an input of this run" in err
+    assert f"--json: the file '{d}' is an input of this run" in err
+    assert list((tmp_path / "c").iterdir())  # the CSV is written
+    # outside a run, the same paths are ordinary files
+    files.atomic_write(tmp_path / "part.imp", "x")
+    assert (tmp_path / "part.imp").read_text() == "x"
+
+
 @pytest.mark.parametrize("statement", ["PRINT ON = ../home/.bashrc", "PRINT ON = /tmp/x.prt",
                                        "STORE INPUT = sub/../../x.imp", "STORE INPUT = ~/x"])
 def test_print_on_and_store_input_outside_are_input_errors(tmp_path: Path,

@@ -268,7 +268,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 def _run_deck(args: argparse.Namespace, talk: Any) -> int:
     from openimp.errors import OutputError
-    from openimp.files import printable
+    from openimp.files import inputs_of_run, printable
 
     deck = _load(args.deck, args.allow_read or ())
     if deck is None:
@@ -293,8 +293,9 @@ def _run_deck(args: argparse.Namespace, talk: Any) -> int:
         return EXIT_INPUT
     out.flush()
     status = _report(runs, problems)
-    if not _write_outputs(args, runs):
-        status = EXIT_FAILURE
+    with inputs_of_run(getattr(deck, "inputs", set())):  # --json DECK keeps the deck
+        if not _write_outputs(args, runs):
+            status = EXIT_FAILURE
     if not runs:
         note(f"{args.deck}: the deck has no EXECUTE statement: nothing was run")
     stopped = [r for r in runs if r.interrupted]

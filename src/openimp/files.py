@@ -14,8 +14,13 @@ Writing: :func:`atomic_write` (and :func:`atomic_write_with` for writers that
 need a file name, such as matplotlib) writes a temporary file beside the
 target and renames it over the target, so a file is written whole or not at
 all and no temporary file is left behind; the file gets the permissions
-``open()`` would give it (``0666`` less the umask).  :class:`OutputFolder`
-is where a run writes the files a deck asks for: names stay inside the
+``open()`` would give it (``0666`` less the umask).  A symbolic link is written
+through (its target replaced, the link kept); a FIFO or a character device
+(``/dev/stdout``, a pipe a reader waits on) is written into directly, never
+replaced; any other special file is refused.  Within :func:`inputs_of_run`
+every file :func:`read_text` reads is an input of the run, and no write
+replaces one (a deck's listing never overwrites the deck or a TABLE it reads).
+:class:`OutputFolder` is where a run writes the files a deck asks for: names stay inside the
 folder, and a file that the run did not create is not replaced unless the
 user allows it.
 
@@ -30,7 +35,9 @@ import os
 import re
 import secrets
 import stat
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from contextlib import contextmanager
+from contextvars import ContextVar
 from pathlib import Path
 
 from openimp.errors import InputError, OutputError
@@ -42,6 +49,8 @@ __all__ = [
     "atomic_write_with",
     "check_readable",
     "decode_text",
+    "input_problem",
+    "inputs_of_run",
     "inside",
     "printable",
     "quote",
@@ -54,6 +63,32 @@ Where = tuple[str, int]
 
 # characters str.splitlines() breaks on, besides the C0/C1 control characters
 _LINE_BREAKS = frozenset("\u2028\u2029")
+
+#: the real paths of the files read by the run in progress (inputs_of_run)
+_INPUTS: ContextVar[set[str] | None] = ContextVar("openimp_run_inputs", default=None)
+
+
+@contextmanager
+def inputs_of_run(paths: set[str]) -> Iterator[set[str]]:
+    """Within the block, every file :func:`read_text` reads is added to ``paths`` (real
+    paths) and no write of this module replaces one of them (:func:`input_problem`).
+    Scoped to the calling thread or task (a context variable)."""
+    token = _INPUTS.set(paths)
+    try:
+        yield paths
+    finally:
+        _INPUTS.reset(token)
+
+
+def input_problem(path: str | os.PathLike[str]) -> str | None:
+    """Why ``path`` must not be written: it is an input of the run in progress (None
+    when it is not, or outside :func:`inputs_of_run`)."""
+    inputs = _INPUTS.get()
+    if inputs and os.path.realpath(path) in inputs:
+        return (f"the file {quote_path(os.fspath(path))} is an input of this run (the deck, a "
+                "recalled file or a TABLE it reads), so it is kept; give the output another "
+                "name")
+    return None
 
 
 def printable(text: str, limit: int | None = None) -> str:
@@ -191,6 +226,9 @@ def read_text(path: str | os.PathLike[str], what: str, where: Where | None = Non
     if size > max_bytes:
         raise InputError(f"{what}: the file {shown} holds more than {max_bytes} bytes "
                          "(limit MAX_FILE_BYTES)", where)
+    inputs = _INPUTS.get()
+    if inputs is not None:
+        inputs.add(os.path.realpath(p))
     return decode_text(b"".join(chunks), p)
 
 
@@ -259,12 +297,45 @@ def _write_error(path: Path, exc: OSError) -> OutputError:
     return OutputError(f"the file {quote_path(str(path))} cannot be written ({why})", str(path))
 
 
+def _direct(p: Path) -> bool | None:
+    """How ``p`` (a real path) is written: False for a regular or new file (a temporary
+    file renamed over it), True for a FIFO or character device (written into); None
+    for what cannot be written safely (a block device, a socket)."""
+    try:
+        mode = os.stat(p).st_mode
+    except OSError:
+        return False
+    if stat.S_ISREG(mode) or stat.S_ISDIR(mode):
+        return False
+    if stat.S_ISFIFO(mode) or stat.S_ISCHR(mode):
+        return True
+    return None
+
+
 def atomic_write_with(path: str | os.PathLike[str], write: Callable[[str], None]) -> Path:
     """Call ``write(tmp)`` on a temporary file beside ``path``, then rename it over
     ``path``.  Creates the parent folders.  Raises :class:`OutputError` naming
     ``path`` (never the temporary file) when it cannot be written; no temporary
-    file is left behind, even on KeyboardInterrupt."""
+    file is left behind, even on KeyboardInterrupt.  A symbolic link is written
+    through; a FIFO or character device is written into (``write(path)``); another
+    special file or an input of the run (:func:`input_problem`) is refused."""
     p = Path(path)
+    refused = input_problem(p)
+    if refused is not None:
+        raise OutputError(refused, str(p))
+    if p.is_symlink():  # the user named the link: its target is written, the link kept
+        p = Path(os.path.realpath(p))
+    direct = _direct(p)
+    if direct is None:
+        raise OutputError(f"the file {quote_path(str(path))} is {_kind(os.stat(p).st_mode)}, "
+                          "which is not written; give the name of a regular file, a FIFO or "
+                          "a character device", str(path))
+    if direct:
+        try:
+            write(str(p))
+        except OSError as exc:
+            raise _write_error(Path(path), exc) from None
+        return Path(path)
     try:
         if p.is_dir():
             raise IsADirectoryError(21, "Is a directory")
@@ -342,6 +413,10 @@ class OutputFolder:
                                 "link leads out of the output folder")
             return None
         key = os.path.realpath(p)
+        mine = input_problem(p)
+        if mine is not None:
+            self.refused.append(f"{loc}{mine}")
+            return None
         if (os.path.lexists(p) and key not in self.created and not self.overwrite):
             self.refused.append(f"{loc}the file {quote_path(str(p))} exists and was not written "
                                 "by this run, so it is kept; give --overwrite to replace it "

@@ -14,7 +14,7 @@ from collections.abc import Callable, Iterable
 from typing import Any
 
 from openimp.errors import InputError
-from openimp.files import real_roots
+from openimp.files import inputs_of_run, real_roots
 from openimp.imp.interp import (
     DEFAULT_TITLE,
     Built,
@@ -54,6 +54,9 @@ class Deck:
         self._where = first.where if first is not None else (path, len(self.statements) and
                                                               self.statements[-1].line)
         self._built: Built | None = None
+        #: real paths of the files the deck read (itself, RECALL INPUT, TABLE): no output
+        #: of its runs replaces one of them
+        self.inputs: set[str] = {os.path.realpath(path)}
 
     @property
     def state(self) -> State:
@@ -114,8 +117,9 @@ class Deck:
         receives notes for stderr and ``problems`` (default: ``notes``) one
         message per file refused or not written.
         """
-        return run_deck(self, out_dir=out_dir, echo=echo, progress=progress, notes=notes,
-                        overwrite=overwrite, problems=problems)
+        with inputs_of_run(self.inputs):
+            return run_deck(self, out_dir=out_dir, echo=echo, progress=progress, notes=notes,
+                            overwrite=overwrite, problems=problems)
 
     def __repr__(self) -> str:
         return (f"Deck({self.path!r}: {len(self.statements)} statements, "
@@ -176,6 +180,16 @@ def load(path: str | os.PathLike[str], check: bool = True,
     allow = [os.fspath(d) for d in allow_read]
     roots = real_roots([os.path.dirname(os.path.abspath(p)), *allow])
     errors: list[InputError] = []
+    inputs: set[str] = set()
+    with inputs_of_run(inputs):
+        deck = _read(p, roots, allow, errors, check)
+    deck.inputs |= inputs
+    return deck
+
+
+def _read(p: str, roots: tuple[str, ...], allow: list[str], errors: list[InputError],
+          check: bool) -> Deck:
+    """:func:`load` after its checks of the path: parse, carry out, check."""
     try:
         statements = parse_file(p, on_error=errors.append, allow_read=allow)
     except InputError as exc:  # the deck cannot be read, or a limit stopped the reading
