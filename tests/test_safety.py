@@ -590,10 +590,63 @@ def test_ctrl_c_on_the_command(tmp_path: Path) -> None:
     _out, err = proc.communicate(timeout=300)
     assert proc.returncode == 130, err
     lines = err.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("openimp: interrupted (Ctrl-C): "), err
+    # interrupted while solving (one line), or once solved (the held note first)
+    assert lines[-1].startswith("openimp: interrupted (Ctrl-C): "), err
+    assert len(lines) == 1 or (len(lines) == 2 and "Ctrl-C: the 100001 output(s) solved are "
+                               "being listed and written" in lines[0]), err
     assert "Traceback" not in err
     run = json.loads(js.read_text())["runs"][0]
     assert run["interrupted"] is True and "Ctrl-C" in run["failure"]
+
+
+def _interrupt_after_solving(tmp_path: Path, presses: int) -> tuple[int, str, Path, Path]:
+    """`openimp run` of a 1e5-position deck with PRINT, SIGINT sent ``presses`` times once
+    the printout of the solved positions has begun (it is made after solving)."""
+    d = deck(tmp_path, "DATA POSITION (A) = 0, 0.0036, 100000\nPRINT POSITION (D)\n"
+             "LIST POSITION (D)\nSTORE POSITION (D)\nEXECUTE\nDATA POSITION (A) = 0, 10, 3\n"
+             "EXECUTE\nEND\n")
+    js, cs = tmp_path / "r.json", tmp_path / "c"
+    env = {**os.environ, "OPENIMP_NO_WARMUP": "1", "PYTHONUNBUFFERED": "1"}
+    proc = subprocess.Popen([sys.executable, "-m", "openimp.cli", "run", str(d), "--json",
+                             str(js), "--csv", str(cs)], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, env=env)
+    assert proc.stdout is not None
+    for line in proc.stdout:
+        if line.startswith("step = "):
+            break
+    for _ in range(presses):
+        proc.send_signal(signal.SIGINT)
+        time.sleep(0.2)
+    _out, err = proc.communicate(timeout=600)
+    return proc.returncode, err, js, cs
+
+
+def test_ctrl_c_after_solving_keeps_everything(tmp_path: Path) -> None:
+    """issue 30 N3: Ctrl-C once the positions are solved (while they are printed, listed
+    and written) holds until the run's results and every file are made whole, says so,
+    then ends the deck (exit 130): the JSON holds all 100 001 rows, the CSV and STORE
+    files are written, the second EXECUTE does not run."""
+    status, err, js, cs = _interrupt_after_solving(tmp_path, 1)
+    assert status == 130, err
+    assert "Traceback" not in err
+    assert "Ctrl-C: the 100001 output(s) solved are being listed and written" in err
+    runs = json.loads(js.read_text())["runs"]
+    assert len(runs) == 1 and runs[0]["interrupted"] is True
+    assert "after its 100001 output(s) were solved; they are listed and written" in \
+        runs[0]["failure"]
+    assert [len(t["rows"]) for t in runs[0]["tables"]] == [100001] * len(runs[0]["tables"])
+    assert any(f.suffix == ".csv" for f in cs.iterdir())
+    assert (tmp_path / "deck_store.txt").exists()
+    assert err.strip().splitlines()[-1].startswith("openimp: interrupted (Ctrl-C): ")
+
+
+def test_ctrl_c_twice_abandons_at_once(tmp_path: Path) -> None:
+    """A second Ctrl-C abandons what was being made: exit 130, no traceback, nothing
+    half-written (no temporary file left)."""
+    status, err, _js, _cs = _interrupt_after_solving(tmp_path, 2)
+    assert status == 130, err
+    assert "Traceback" not in err and "Ctrl-C again abandons them" in err
+    no_temp_files(tmp_path)
 
 
 def test_empty_decks_are_refused_by_check_too(tmp_path: Path) -> None:

@@ -267,6 +267,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 
 def _run_deck(args: argparse.Namespace, talk: Any) -> int:
+    from openimp._interrupt import held_interrupt
     from openimp.errors import OutputError
     from openimp.files import inputs_of_run, printable
 
@@ -293,15 +294,21 @@ def _run_deck(args: argparse.Namespace, talk: Any) -> int:
         return EXIT_INPUT
     out.flush()
     status = _report(runs, problems)
-    with inputs_of_run(getattr(deck, "inputs", set())):  # --json DECK keeps the deck
+    def told() -> None:
+        _err("openimp: Ctrl-C: the --json and --csv files of what was run are being written; "
+             "Ctrl-C again abandons them")
+
+    # --json DECK keeps the deck; a first Ctrl-C lets the files be written whole
+    with inputs_of_run(getattr(deck, "inputs", set())), held_interrupt(told) as held:
         if not _write_outputs(args, runs):
             status = EXIT_FAILURE
     if not runs:
         note(f"{args.deck}: the deck has no EXECUTE statement: nothing was run")
     stopped = [r for r in runs if r.interrupted]
-    if stopped:
-        _err(f"openimp: interrupted (Ctrl-C): {stopped[0].failure}; what was computed is "
-             "listed and written")
+    if stopped or held[0]:
+        why = stopped[0].failure if stopped else "after the runs, while their files were written"
+        kept = "" if "listed" in why else "; what was computed is listed and written"
+        _err(f"openimp: interrupted (Ctrl-C): {why}{kept}")
         return EXIT_INTERRUPTED
     return status
 

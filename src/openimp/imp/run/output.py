@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from openimp._interrupt import held_interrupt
 from openimp.errors import InputError, OutputError
 from openimp.files import OutputFolder, printable, slug
 from openimp.imp.interp import DEFAULT_TITLE, RunSpec, State, Where, build_model
@@ -183,6 +184,27 @@ def execute_run(spec: RunSpec, ctx: Context) -> Run:
             assert ctx.progress is not None
             ctx.progress(_i, done, total)
     sol = SOLVERS[spec.mode](prep, times, start, notes, prog)
+    loc = f"{spec.where[0]}:{spec.where[1]}"
+
+    def told() -> None:
+        ctx.notes(f"{loc}: Ctrl-C: the {sol.n} output(s) solved are being listed and written; "
+                  "Ctrl-C again abandons them")
+
+    with held_interrupt(told) as held:  # what is solved is the user's: finish it
+        _results(spec, ctx, prep, sol, notes, run)
+    if held[0] and not run.interrupted:
+        run.interrupted = True
+        run.failure = (f"{loc}: EXECUTE: interrupted by the user (Ctrl-C) after its {sol.n} "
+                       "output(s) were solved; they are listed and written")
+        ctx.say(f"*** {run.failure} ***")
+    return run
+
+
+def _results(spec: RunSpec, ctx: Context, prep: Prepared, sol: Solution, notes: list[str],
+             run: Run) -> None:
+    """The solution of one EXECUTE made into its tables, printout, listings, graphics and
+    held reference (into ``run`` and through ``ctx``)."""
+    state = spec.state
     bodies, points = needs(prep, sol.n)
     sol.traj.prefetch(bodies, points)  # one pass over the steps for every table
     for text in singular_notes(sol, stepped(state)):
@@ -262,7 +284,6 @@ def execute_run(spec: RunSpec, ctx: Context) -> Run:
         m = "The current position is set as reference."
         run.messages.append(m)
         ctx.say(f"*** {m} ***")
-    return run
 
 
 def _scene(prep: Prepared, sol: Solution, steps: slice, title: str) -> Any:
@@ -524,5 +545,11 @@ def run_deck(deck: Any, out_dir: str | os.PathLike[str] | None = None,
         _event(kind, payload, ctx, runs)
     for text in trailing_requests(deck):
         ctx.notes(text)
-    _write_files(ctx, runs, deck.path)
+    with held_interrupt(lambda: ctx.notes("Ctrl-C: the deck's files of what was run are being "
+                                          "written; Ctrl-C again abandons them")) as held:
+        _write_files(ctx, runs, deck.path)
+    if held[0] and runs and not runs[-1].interrupted:
+        runs[-1].interrupted = True
+        runs[-1].failure = runs[-1].failure or "interrupted by the user (Ctrl-C) while its files "\
+            "were written; they are written whole"
     return runs

@@ -1,0 +1,43 @@
+"""Ctrl-C while results already solved are being made and written.
+
+Solving stops at Ctrl-C and keeps what it solved (each analysis catches
+KeyboardInterrupt).  Once solved, the listing, the forces of those steps, the
+tables and the files are what the user asked to keep: :func:`held_interrupt`
+holds a first Ctrl-C over that work (it says so, the work finishes, and the
+caller then ends the run as interrupted), and a second Ctrl-C abandons it at once.
+"""
+
+from __future__ import annotations
+
+import signal
+import threading
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from types import FrameType
+
+__all__ = ["held_interrupt"]
+
+
+@contextmanager
+def held_interrupt(say: Callable[[], None]) -> Iterator[list[bool]]:
+    """Within the block a first SIGINT sets ``held[0]`` and calls ``say()`` (which tells
+    the user what is being finished), a second raises KeyboardInterrupt.  Yields
+    ``held``.  Outside the main thread (where Python does not deliver SIGINT) and
+    when SIGINT is not Python's default handler, nothing changes."""
+    held = [False]
+    if (threading.current_thread() is not threading.main_thread()
+            or signal.getsignal(signal.SIGINT) is not signal.default_int_handler):
+        yield held
+        return
+
+    def handler(signum: int, frame: FrameType | None) -> None:
+        if held[0]:
+            raise KeyboardInterrupt
+        held[0] = True
+        say()
+
+    signal.signal(signal.SIGINT, handler)
+    try:
+        yield held
+    finally:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
