@@ -46,6 +46,7 @@ from openimp.kinematics.position import position
 from openimp.kinematics.rates import accelerations, body_operators, velocity, velocity_product
 from openimp.results import EquationsOfMotion
 from openimp.system import (
+    State,
     System,
     data_views,
     dyn_data_views,
@@ -54,6 +55,7 @@ from openimp.system import (
     make_state,
     model_views,
 )
+from openimp.workspace import WORKSPACES
 
 
 @njit(nrt=False, inline="always")
@@ -272,7 +274,6 @@ def equations(system: System, q: Any = None, rates: Any = None, *, state: Any = 
     """
     if not isinstance(system, System):
         raise InputError(f"equations takes a compiled System, got {type(system).__name__}")
-    nq = system.nq
     ptol = positive(pivot_tol, "equations: pivot_tol")
     given = given_state(system, q, state, "equations", rates)
     if given is not None:
@@ -286,8 +287,28 @@ def equations(system: System, q: Any = None, rates: Any = None, *, state: Any = 
         psid = per_coordinate(system, rates, "equations: rates")
     for key in names_of(specified, "equations"):
         S.sgc[system.var_index(key)] = True
-    data = make_data(system, nq)
-    dyn = make_dyn_data(system, nq)
+    sc = WORKSPACES.take(system, "equations", _Scratch)
+    try:
+        return _equations(system, S, psid, t, ptol, sc)
+    finally:
+        WORKSPACES.give(system, "equations", sc)
+
+
+class _Scratch:
+    """The kinematic and dynamic scratch of one :func:`equations` call, from
+    :data:`~openimp.workspace.WORKSPACES` (kind ``"equations"``: making their views
+    costs a third of a small call)."""
+
+    def __init__(self, system: System) -> None:
+        self.data = make_data(system, system.nq)
+        self.dyn = make_dyn_data(system, system.nq)
+
+
+def _equations(system: System, S: State, psid: np.ndarray, t: float, ptol: float,
+               sc: _Scratch) -> EquationsOfMotion:
+    """:func:`equations` at the assembled state S with the rates psid (internal units)."""
+    nq = system.nq
+    data, dyn = sc.data, sc.dyn
     M, cv, Qv = np.zeros((nq, nq)), np.zeros(nq), np.zeros(nq)
     if system.laws:
         # the laws read the joint rates phi' psi', which the first evaluation sets
