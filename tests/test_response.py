@@ -1131,3 +1131,24 @@ def test_state_as_q_is_deprecated():
         old = openimp.simulate(sy, times=times, q=S)
     new = openimp.simulate(sy, times=times, state=S)
     assert np.array_equal(old.q, new.q) and old.q[0, 0] == pytest.approx(0.2, abs=1e-15)
+
+
+def test_energy_audit_columns_computed_once():
+    """issue 30 N6: the audit's derived columns (T + V, the balance, its scale and relative
+    size) are computed once and handed out read-only, so that PRINT HEADING, which reads
+    them at every output, is linear in the outputs; their values by the class's
+    formulas, written here in numpy."""
+    from openimp.results import EnergyAudit
+
+    rng = np.random.default_rng(2)
+    T, V, Wd, Wl, D = (rng.normal(size=1000) for _ in range(5))
+    e = EnergyAudit(T, V, Wd, Wl, D)
+    bal = (T + V) - (T[0] + V[0]) - Wd - Wl + D
+    scale = max(np.abs(T).max(), np.abs(V - V[0]).max(), np.abs(Wd).max(), np.abs(Wl).max(),
+                np.abs(D).max())
+    assert np.array_equal(e.balance, bal)
+    assert e.scale == scale
+    assert np.array_equal(e.relative, np.abs(bal) / scale)
+    for name in ("total", "balance", "relative"):
+        assert getattr(e, name) is getattr(e, name)
+        assert not getattr(e, name).flags.writeable

@@ -16,6 +16,7 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from enum import IntEnum
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -161,6 +162,8 @@ class EnergyAudit:
     (T0 + V0) - drive_work - load_work + dissipated, which the exact motion
     keeps at zero: it is the integration error.  ``relative`` = |balance| /
     ``scale``, scale the largest of T, |V - V0| and the works over the run.
+    The derived columns are computed once (read-only arrays): a listing reads them
+    at every output.
     """
 
     kinetic: np.ndarray
@@ -169,20 +172,20 @@ class EnergyAudit:
     load_work: np.ndarray
     dissipated: np.ndarray
 
-    @property
+    @cached_property
     def total(self) -> np.ndarray:
         """T + V."""
-        return self.kinetic + self.potential
+        return _frozen(self.kinetic + self.potential)
 
-    @property
+    @cached_property
     def balance(self) -> np.ndarray:
         """The energy the integration created (+) or lost (-) since the start."""
         if self.kinetic.size == 0:
             return np.zeros(0)
         e = self.total - self.total[0]
-        return e - self.drive_work - self.load_work + self.dissipated
+        return _frozen(e - self.drive_work - self.load_work + self.dissipated)
 
-    @property
+    @cached_property
     def scale(self) -> float:
         """The energy scale of the run (see the class)."""
         if self.kinetic.size == 0:
@@ -191,11 +194,11 @@ class EnergyAudit:
                  self.load_work, self.dissipated)
         return float(max(np.max(np.abs(p)) for p in parts))
 
-    @property
+    @cached_property
     def relative(self) -> np.ndarray:
         """|balance| / scale (0 when nothing moves)."""
         sc = self.scale
-        return np.abs(self.balance) / sc if sc > 0 else np.zeros_like(self.kinetic)
+        return _frozen(np.abs(self.balance) / sc if sc > 0 else np.zeros_like(self.kinetic))
 
     def to_table(self) -> dict[str, Any]:
         """Columns: the energies, the works, the balance and its relative size."""
