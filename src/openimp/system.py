@@ -413,6 +413,13 @@ def make_dyn_data(system: System, nf: int) -> DynData:
     return DynData(allocate(DYN_DATA_FIELDS, sizes))
 
 
+def make_scratch(system: System) -> tuple[Data, DynData]:
+    """The kinematic and dynamic scratch of one analysis call of ``system`` (all its
+    variables as generalized coordinates), as the analyses keep them in
+    :data:`~openimp.workspace.WORKSPACES`."""
+    return make_data(system, system.nq), make_dyn_data(system, system.nq)
+
+
 # =============================================================================
 # The compiled model
 # =============================================================================

@@ -34,7 +34,14 @@ from openimp.kinematics.sweep import (
 )
 from openimp.kinematics.track import tracker
 from openimp.results import Forces, Trajectory
-from openimp.system import ELEMENT_KINDS, State, System, make_data, make_dyn_data, make_state
+from openimp.system import (
+    ELEMENT_KINDS,
+    State,
+    System,
+    make_dyn_data,
+    make_scratch,
+    make_state,
+)
 from openimp.workspace import WORKSPACES
 
 #: IMP's ZERO (INDETERM): the largest incompatibility (17.18) of a determinate component
@@ -111,7 +118,7 @@ def forces_of(trajectory: Trajectory, *, reactions: bool = True,
     out = _allocate(system, n)
     S = make_state(system)
     S.sgc[:] = trajectory.specified
-    with WORKSPACES.use(system, "forces", _scratch) as (data, dyn):
+    with WORKSPACES.use(system, "forces", make_scratch) as (data, dyn):
         forces_steps(system.KP, data.DP, system.YP, dyn.ZP, S, system.gen, rows, opt, out)
     return _result(system, trajectory, out, reactions)
 
@@ -120,11 +127,6 @@ def _options(reactions: Any, indeterminate: Any, pivot_tol: Any) -> ForceOptions
     """The checked options of a force analysis."""
     return ForceOptions(positive(pivot_tol, "forces: pivot_tol"),
                         positive(indeterminate, "forces: indeterminate"), bool(reactions))
-
-
-def _scratch(system: System) -> tuple[Any, Any]:
-    """(Data, DynData) of one force analysis (:data:`~openimp.workspace.WORKSPACES`)."""
-    return make_data(system, system.nq), make_dyn_data(system, system.nq)
 
 
 def _open_chain(system: System, drivers: Any, rates: Any, accels: Any,
@@ -155,7 +157,7 @@ def _open_chain(system: System, drivers: Any, rates: Any, accels: Any,
     out = _allocate(system, n)
     S = make_state(system)
     S.sgc[:] = True
-    with WORKSPACES.use(system, "forces", _scratch) as (data, dyn):
+    with WORKSPACES.use(system, "forces", make_scratch) as (data, dyn):
         open_chain_steps(system.KP, data.DP, system.YP, dyn.ZP, S, system.gen, rows, opt,
                          out)
     return _result(system, tr, out, opt.reactions)

@@ -50,8 +50,7 @@ from openimp.system import (
     System,
     data_views,
     dyn_data_views,
-    make_data,
-    make_dyn_data,
+    make_scratch,
     make_state,
     model_views,
 )
@@ -287,28 +286,17 @@ def equations(system: System, q: Any = None, rates: Any = None, *, state: Any = 
         psid = per_coordinate(system, rates, "equations: rates")
     for key in names_of(specified, "equations"):
         S.sgc[system.var_index(key)] = True
-    sc = WORKSPACES.take(system, "equations", _Scratch)
-    try:
-        return _equations(system, S, psid, t, ptol, sc)
-    finally:
-        WORKSPACES.give(system, "equations", sc)
-
-
-class _Scratch:
-    """The kinematic and dynamic scratch of one :func:`equations` call, from
-    :data:`~openimp.workspace.WORKSPACES` (kind ``"equations"``: making their views
-    costs a third of a small call)."""
-
-    def __init__(self, system: System) -> None:
-        self.data = make_data(system, system.nq)
-        self.dyn = make_dyn_data(system, system.nq)
+    # the scratch kept per system: making its views costs a third of a small call
+    with WORKSPACES.use(system, "equations", make_scratch) as scratch:
+        return _equations(system, S, psid, t, ptol, scratch)
 
 
 def _equations(system: System, S: State, psid: np.ndarray, t: float, ptol: float,
-               sc: _Scratch) -> EquationsOfMotion:
-    """:func:`equations` at the assembled state S with the rates psid (internal units)."""
+               scratch: tuple[Any, Any]) -> EquationsOfMotion:
+    """:func:`equations` at the assembled state S with the rates psid (internal units)
+    in ``scratch`` (Data, DynData)."""
     nq = system.nq
-    data, dyn = sc.data, sc.dyn
+    data, dyn = scratch
     M, cv, Qv = np.zeros((nq, nq)), np.zeros(nq), np.zeros(nq)
     if system.laws:
         # the laws read the joint rates phi' psi', which the first evaluation sets

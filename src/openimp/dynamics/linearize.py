@@ -40,7 +40,14 @@ from openimp.kinematics.inputs import (
 )
 from openimp.kinematics.posture import newton, sgc_residual
 from openimp.results import Linearization
-from openimp.system import FORCE, TORQUE, State, System, make_data, make_dyn_data, make_state
+from openimp.system import (
+    FORCE,
+    TORQUE,
+    State,
+    System,
+    make_scratch,
+    make_state,
+)
 from openimp.workspace import WORKSPACES
 
 #: closure tolerance of the postures the motion terms are differenced over
@@ -309,7 +316,7 @@ def _scratch(system: System) -> tuple[Any, Any, Linearized, LinWork]:
     :data:`~openimp.workspace.WORKSPACES` (allocating them costs as much as the
     compiled kernel; the results never alias them); the Data and DynData carry
     ``views`` (:class:`_Views`)."""
-    data, dyn = make_data(system, system.nq), make_dyn_data(system, system.nq)
+    data, dyn = make_scratch(system)
     data.views = dyn.views = _Views(data, dyn)  # type: ignore[attr-defined]
     return (data, dyn, *kernel_buffers(system))
 
