@@ -16,11 +16,18 @@ folder with a time limit, and :func:`failures` lists what went wrong:
   (or the deck's name, or the command-line option it is about);
 * ``outside``: a file written outside the deck's folder and the output folder,
   a file that existed before the run changed, or a temporary file left;
-* ``hang``: the case ran past its time limit; ``memory``: a MemoryError.
+* ``hang``: the case ran past its time limit; ``memory``: a MemoryError;
+* ``nonfinite``: exit 0 with an undefined (``????``) position in a listing;
+* with ``--sigint-every N``, every N-th case runs as a real process that gets a
+  SIGINT (Ctrl-C) at a random moment: ``sigint_hang`` when it has not ended 10 s
+  later (then it is killed), ``sigint_slow`` when it took over a second, ``lost``
+  when it was interrupted after listing results and its ``--json`` file is missing
+  or not whole.
 
 The test suite runs a few hundred cases (``tests/test_fuzz.py``); a long run::
 
     python -m tests.fuzz_decks --count 20000 --seed 1 [--workers 2] [--save DIR] [--extra DIR]
+        [--sigint-every 20]
 
 runs each batch of cases in a worker process (memory capped, killed if a
 case hangs past ``--hard-timeout``) and prints the count of every class.
@@ -46,6 +53,8 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
+
 ROOT = Path(__file__).resolve().parent.parent
 SOURCES = sorted([*(ROOT / "examples").glob("*.imp"), *(ROOT / "tests" / "decks").glob("*.imp"),
                   *(ROOT / "tests" / "decks" / "fuzz").glob("*.imp")])
@@ -53,7 +62,7 @@ SOURCES = sorted([*(ROOT / "examples").glob("*.imp"), *(ROOT / "tests" / "decks"
 SUPPORT = {"cam_profile.tab": (ROOT / "examples" / "cam_profile.tab").read_bytes()}
 
 CLASSES = ("status", "internal", "traceback", "warning", "no_location", "outside", "hang",
-           "memory")
+           "memory", "nonfinite", "sigint_hang", "sigint_slow", "lost")
 
 NASTY_NUMBERS = [
     "0", "-0", "1", "-1", "0.5", "360", "-360", "1E-320", "4.9E-324", "1E-300", "1E-15",
@@ -449,12 +458,75 @@ def failures_of(status: int | None, stdout: str, stderr: str, deck: str) -> list
         out.append("memory")
     if re.search(r"\w+Warning\b", stderr):
         out.append("warning")
-    if status in (0, 1, 2):  # every error and note on stderr says where
+    if status in (0, 1, 2, 130):  # every error and note on stderr says where
         for line in stderr.splitlines():
             if line.strip() and not _located(line, deck):
                 out.append("no_location")
                 break
+    if status == 0 and _undefined_position(stdout):
+        out.append("nonfinite")
     return out
+
+
+def _undefined_position(stdout: str) -> bool:
+    """A listing of positions with an undefined (``????``) entry."""
+    section = ""
+    for line in stdout.splitlines():
+        text = line.strip()
+        if text.startswith("Listing of "):
+            section = text
+        elif section.startswith("Listing of position") and "????" in text:
+            return True
+    return False
+
+
+#: seconds after a SIGINT within which a run must end (and after which it is killed)
+SIGINT_SLOW, SIGINT_KILL = 1.0, 10.0
+
+
+def run_case_sigint(case: Case, root: Path, delay: float, time_limit: float = 30.0
+                    ) -> tuple[Outcome, float | None]:
+    """Run ``case`` as a real ``openimp`` process and send it SIGINT after ``delay``
+    seconds (if it is still running); the outcome and how long it took to end after the
+    SIGINT (None when it ended first)."""
+    import subprocess
+
+    places = _layout(case, root)
+    argv = [a.format(**places) if "{" in a else a for a in case.argv]
+    argv = [places["deck"] if a == case.deck else a for a in argv]
+    before = _snapshot(root)
+    env = dict(os.environ, OPENIMP_NO_WARMUP="1")
+    t0 = time.monotonic()
+    p = subprocess.Popen([sys.executable, "-m", "openimp.cli", *argv], cwd=root / "cwd",
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env)
+    failures: list[str] = []
+    latency: float | None = None
+    try:
+        out_b, err_b = p.communicate(timeout=delay)
+    except subprocess.TimeoutExpired:
+        p.send_signal(signal.SIGINT)
+        t_int = time.monotonic()
+        try:
+            out_b, err_b = p.communicate(timeout=SIGINT_KILL)
+            latency = time.monotonic() - t_int
+            if latency > SIGINT_SLOW:
+                failures.append("sigint_slow")
+        except subprocess.TimeoutExpired:
+            p.kill()
+            out_b, err_b = p.communicate()
+            failures.append("sigint_hang")
+            latency = SIGINT_KILL
+    out, err = (b.decode("utf-8", "replace") for b in (out_b, err_b))
+    status = p.returncode
+    failures += failures_of(status, out, err, places["deck"])
+    failures += _changes(before, _snapshot(root), argv, root)
+    if latency is not None and status == 130 and "--json" in argv and "Listing of" in out:
+        target = Path(argv[argv.index("--json") + 1])
+        try:
+            json.loads(target.read_text())
+        except (OSError, ValueError):
+            failures.append("lost")
+    return Outcome(status, out, err, time.monotonic() - t0, sorted(set(failures))), latency
 
 
 _TEMP = re.compile(r"^\..+\.[0-9a-f]{8}(\.\w+)?$")  # openimp.files' temporary names
@@ -505,20 +577,27 @@ def warm_up() -> None:
             cli.main(["run", os.path.join(tmp, os.path.basename(rel)), "--quiet"])
 
 
-def _worker(seed: int, indices: list[int], time_limit: float, memory: int, conn: object) -> None:
-    """Run cases in a child process; send one result per case through ``conn``."""
+def _worker(seed: int, indices: list[int], time_limit: float, memory: int, conn: object,
+            sigint_every: int = 0) -> None:
+    """Run cases in a child process; send one result per case through ``conn`` (every
+    ``sigint_every``-th case as a real process interrupted at a random moment)."""
     resource.setrlimit(resource.RLIMIT_AS, (memory, memory))
     os.environ["OPENIMP_NO_WARMUP"] = "1"
     warm_up()
     for k in indices:
         case = make_case(seed, k)
+        latency: float | None = None
         with tempfile.TemporaryDirectory(prefix="fuzz") as tmp:
             try:
-                res = run_case(case, Path(tmp), time_limit)
+                if sigint_every and k % sigint_every == 0:
+                    delay = random.Random(f"sigint:{seed}:{k}").uniform(0.3, 4.0)
+                    res, latency = run_case_sigint(case, Path(tmp), delay, time_limit)
+                else:
+                    res = run_case(case, Path(tmp), time_limit)
                 msg = (k, res.status, res.failures, round(res.seconds, 3),
-                       res.stderr[-2000:] if res.failures else "")
+                       res.stderr[-2000:] if res.failures else "", latency)
             except MemoryError:
-                msg = (k, None, ["memory"], 0.0, "")
+                msg = (k, None, ["memory"], 0.0, "", None)
         conn.send(msg)  # type: ignore[attr-defined]
 
 
@@ -526,11 +605,12 @@ class _Worker:
     """A child process running a list of cases, and the time of its last result."""
 
     def __init__(self, ctx: object, seed: int, chunk: list[int], time_limit: float,
-                 memory: int) -> None:
+                 memory: int, sigint_every: int = 0) -> None:
         self.chunk = list(chunk)
         self.conn, child = ctx.Pipe(duplex=False)  # type: ignore[attr-defined]
         self.proc = ctx.Process(target=_worker,  # type: ignore[attr-defined]
-                                args=(seed, self.chunk, time_limit, memory, child),
+                                args=(seed, self.chunk, time_limit, memory, child,
+                                      sigint_every),
                                 daemon=True)
         self.proc.start()
         child.close()
@@ -551,24 +631,29 @@ class _Worker:
 
 
 def long_run(count: int, seed: int, workers: int, time_limit: float, hard_timeout: float,
-             memory: int, save: Path | None, start: int = 0) -> Counter[str]:
+             memory: int, save: Path | None, start: int = 0, sigint_every: int = 0
+             ) -> Counter[str]:
     """Run ``count`` cases; print and return the count of each failure class."""
     import multiprocessing as mp
 
     ctx = mp.get_context("fork")
     todo = list(range(start, start + count))
-    pool = [_Worker(ctx, seed, todo[i::workers], time_limit, memory)
+    pool = [_Worker(ctx, seed, todo[i::workers], time_limit, memory, sigint_every)
             for i in range(workers) if todo[i::workers]]
     counts: Counter[str] = Counter()
     statuses: Counter[str] = Counter()
+    latencies: list[float] = []
     t0 = time.monotonic()
     done = 0
 
-    def record(k: int, status: object, fails: list[str], tail: str) -> None:
+    def record(k: int, status: object, fails: list[str], tail: str,
+               latency: float | None = None) -> None:
         nonlocal done
         done += 1
         statuses[str(status)] += 1
         counts.update(fails)
+        if latency is not None:
+            latencies.append(latency)
         if fails and save is not None:
             _save(save, seed, k, fails, tail)
         if done % 500 == 0:
@@ -583,8 +668,8 @@ def long_run(count: int, seed: int, workers: int, time_limit: float, hard_timeou
             except EOFError:  # the worker died (memory limit, crash): blame its case
                 msg, dead = None, True
             if msg is not None:
-                k, status, fails, _secs, tail = msg
-                record(k, status, fails, tail)
+                k, status, fails, _secs, tail, latency = msg
+                record(k, status, fails, tail, latency)
             elif dead or time.monotonic() - w.last > hard_timeout:
                 w.stop()
                 pool.remove(w)
@@ -593,13 +678,17 @@ def long_run(count: int, seed: int, workers: int, time_limit: float, hard_timeou
                     record(k, None, ["memory" if dead else "hang"],
                            f"worker exit code {w.proc.exitcode}")
                 if w.chunk:
-                    pool.append(_Worker(ctx, seed, w.chunk, time_limit, memory))
+                    pool.append(_Worker(ctx, seed, w.chunk, time_limit, memory, sigint_every))
                 continue
             if not w.chunk:
                 w.proc.join()
                 pool.remove(w)
     secs = time.monotonic() - t0
     print(f"{count} cases in {secs:.0f} s; exit statuses {dict(statuses)}")
+    if latencies:
+        lat = np.sort(np.array(latencies))
+        print(f"SIGINT sent to {len(lat)} running cases: ended after median {np.median(lat):.3f} "
+              f"s, 99th percentile {np.quantile(lat, 0.99):.3f} s, largest {lat[-1]:.3f} s")
     print("failures: " + ", ".join(f"{c} {counts.get(c, 0)}" for c in CLASSES))
     return counts
 
@@ -628,13 +717,15 @@ def main(argv: list[str] | None = None) -> int:
                    help="seconds without a result before a worker is killed")
     p.add_argument("--memory", type=int, default=4096, help="MB of address space per worker")
     p.add_argument("--save", type=Path, help="folder for the decks of failing cases")
+    p.add_argument("--sigint-every", type=int, default=0,
+                   help="run every N-th case as a process interrupted at a random moment")
     p.add_argument("--extra", type=Path, action="append", default=[],
                    help="a folder of more decks to mutate (*.imp, searched recursively)")
     a = p.parse_args(argv)
     for folder in a.extra:
         SOURCES.extend(sorted(folder.rglob("*.imp")))
     counts = long_run(a.count, a.seed, a.workers, a.time_limit, a.hard_timeout,
-                      a.memory << 20, a.save, a.start)
+                      a.memory << 20, a.save, a.start, a.sigint_every)
     return 1 if sum(counts.values()) else 0
 
 

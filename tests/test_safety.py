@@ -670,3 +670,81 @@ def test_library_log_records_become_located_notes(monkeypatch: pytest.MonkeyPatc
     monkeypatch.setattr(cli, "_cmd_check", check)
     assert run_cli("check", "x.imp") == (
         0, "", "openimp: note: x.imp: matplotlib.text: posx and posy should be finite\n")
+
+
+#: the fuzz findings' N3 deck: a released four-bar, here with 20 001 outputs
+N3_DECK = Path(__file__).resolve().parents[2] / "shared" / "fuzz-findings" / "new-modes" / \
+    "N3_long_list.imp"
+
+
+def _released_fourbar(tmp_path: Path) -> Path:
+    text = N3_DECK.read_text() if N3_DECK.exists() else ""
+    if not text:
+        pytest.skip("shared/fuzz-findings is not beside the checkout")
+    text = text.replace("DATA TIME = 1000, 0, 0.01", "DATA TIME = 200, 0, 0.01")
+    text = text.replace("LIST POSITION (A, D, CP)", "PRINT POSITION (A)\nLIST POSITION (A, D, "
+                        "CP)\nSTORE POSITION (A)")
+    d = tmp_path / "long.imp"
+    d.write_text(text)
+    return d
+
+
+def test_ctrl_c_while_integrating_keeps_the_outputs_reached(tmp_path: Path) -> None:
+    """issue 30 N3 in dynamic mode: a real SIGINT (from a timer thread, so it lands at any
+    bytecode: inside the compiled step's callbacks too) once 1000 outputs are reached
+    keeps them; the run is interrupted, its tables hold the same rows, no error."""
+    d = _released_fourbar(tmp_path)
+    code = f"""
+import json, os, signal, threading
+from openimp.imp.deck import load
+fired = []
+def progress(run, done, total):
+    if done >= 1000 and not fired:
+        fired.append(done)
+        threading.Timer(0.05, os.kill, (os.getpid(), signal.SIGINT)).start()
+runs = load({str(d)!r}).run(progress=progress)
+r = runs[0]
+print(json.dumps({{"n": len(runs), "interrupted": r.interrupted, "failure": r.failure,
+                  "rows": [len(t.rows) for t in r.tables],
+                  "t": [float(x) for x in r.tables[0].rows[:, 0]]}}))
+"""
+    env = {**os.environ, "OPENIMP_NO_WARMUP": "1"}
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
+                       timeout=1800)
+    assert p.returncode == 0, p.stderr[-3000:]
+    out = json.loads(p.stdout.strip().splitlines()[-1])
+    assert out["n"] == 1 and out["interrupted"] is True, out["failure"]
+    assert "interrupted by the user (Ctrl-C)" in out["failure"]
+    assert len(set(out["rows"])) == 1 and 1000 <= out["rows"][0] < 20001, out["rows"]
+    np.testing.assert_allclose(out["t"], 0.01 * np.arange(out["rows"][0]), rtol=0, atol=1e-9)
+
+
+def test_ctrl_c_after_integrating_keeps_every_output(tmp_path: Path) -> None:
+    """issue 30 N3 in dynamic mode (the reproducer N3_sigint.py): SIGINT once the run has
+    integrated (its forces, listings and files being made) keeps all of them: the JSON
+    tables, the CSV files and the STORE file are written whole, with every output."""
+    d = _released_fourbar(tmp_path)
+    js, cs = tmp_path / "r.json", tmp_path / "c"
+    env = {**os.environ, "OPENIMP_NO_WARMUP": "1", "PYTHONUNBUFFERED": "1"}
+    proc = subprocess.Popen([sys.executable, "-m", "openimp.cli", "run", str(d), "--json",
+                             str(js), "--csv", str(cs)], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, env=env)
+    assert proc.stdout is not None
+    for line in proc.stdout:  # the printout is made once every output is solved
+        if "time = " in line:
+            break
+    proc.send_signal(signal.SIGINT)
+    _out, err = proc.communicate(timeout=900)
+    assert proc.returncode == 130, err
+    assert "Traceback" not in err and "unexpectedly" not in err
+    assert any(ln.startswith("openimp: interrupted (Ctrl-C)") for ln in err.splitlines()), err
+    run = json.loads(js.read_text())["runs"][0]
+    assert run["interrupted"] is True
+    assert "after its 20001 output(s) were solved" in run["failure"]
+    assert [len(t["rows"]) for t in run["tables"]] == [20001] * len(run["tables"])
+    csvs = sorted(cs.iterdir())
+    assert csvs and all(len(f.read_text().splitlines()) == 20002 for f in csvs)
+    times = np.array(run["tables"][0]["rows"])[:, 0]
+    np.testing.assert_allclose(times, 0.01 * np.arange(20001), rtol=0, atol=1e-9)
+    assert (tmp_path / "long_store.txt").exists()
+    no_temp_files(tmp_path)

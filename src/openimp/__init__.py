@@ -15,52 +15,91 @@ compiled system as in Pinocchio and MuJoCo::
 (``docs/python.md`` goes on to a plot and an animation.)
 """
 
-from typing import Any
+import importlib
+from typing import TYPE_CHECKING, Any
 
-from openimp.dynamics import (
-    BumpStop,
-    LiftOff,
-    LoadState,
-    OneWayDamper,
-    equations,
-    equilibria,
-    equilibrium,
-    forces,
-    forces_of,
-    frequency_response,
-    linearize,
-    mode_motion,
-    modes,
-    modes_along,
-    simulate,
-    state_space,
-    transfer_function,
-)
 from openimp.errors import AnalysisError, InputError, OpenIMPError
-from openimp.kinematics import BatchResult, sweep, sweep_batch
-from openimp.kinematics.ballrates import ball_rates
-from openimp.model import Model
-from openimp.results import (
-    CoordinateSwitch,
-    EnergyAudit,
-    EquationsOfMotion,
-    Equilibrium,
-    EquilibriumPath,
-    Event,
-    Forces,
-    FrequencyResponse,
-    IntegrationStats,
-    Linearization,
-    ModeMap,
-    Modes,
-    SearchStatus,
-    StateSpace,
-    StepKind,
-    Trajectory,
-    TransferFunction,
-)
-from openimp.system import State, System
-from openimp.system import compile_model as compile
+
+if TYPE_CHECKING:  # the names below, for type checkers; imported on first use otherwise
+    from openimp.dynamics import (
+        BumpStop,
+        LiftOff,
+        LoadState,
+        OneWayDamper,
+        equations,
+        equilibria,
+        equilibrium,
+        forces,
+        forces_of,
+        frequency_response,
+        linearize,
+        mode_motion,
+        modes,
+        modes_along,
+        simulate,
+        state_space,
+        transfer_function,
+    )
+    from openimp.kinematics import BatchResult, sweep, sweep_batch
+    from openimp.kinematics.ballrates import ball_rates
+    from openimp.model import Model
+    from openimp.results import (
+        CoordinateSwitch,
+        EnergyAudit,
+        EquationsOfMotion,
+        Equilibrium,
+        EquilibriumPath,
+        Event,
+        Forces,
+        FrequencyResponse,
+        IntegrationStats,
+        Linearization,
+        ModeMap,
+        Modes,
+        SearchStatus,
+        StateSpace,
+        StepKind,
+        Trajectory,
+        TransferFunction,
+    )
+    from openimp.system import State, System
+    from openimp.system import compile_model as compile
+
+#: where each public name lives: ``import openimp`` stays instant (the command starts,
+#: and answers Ctrl-C, at once); numpy, scipy and numba load with the first name used
+_WHERE: dict[str, tuple[str, str]] = {
+    **{n: ("openimp.dynamics", n) for n in (
+        "BumpStop", "LiftOff", "LoadState", "OneWayDamper", "equations", "equilibria",
+        "equilibrium", "forces", "forces_of", "frequency_response", "linearize",
+        "mode_motion", "modes", "modes_along", "simulate", "state_space",
+        "transfer_function")},
+    **{n: ("openimp.kinematics", n) for n in ("BatchResult", "sweep", "sweep_batch")},
+    "ball_rates": ("openimp.kinematics.ballrates", "ball_rates"),
+    "Model": ("openimp.model", "Model"),
+    **{n: ("openimp.results", n) for n in (
+        "CoordinateSwitch", "EnergyAudit", "EquationsOfMotion", "Equilibrium",
+        "EquilibriumPath", "Event", "Forces", "FrequencyResponse", "IntegrationStats",
+        "Linearization", "ModeMap", "Modes", "SearchStatus", "StateSpace", "StepKind",
+        "Trajectory", "TransferFunction")},
+    "State": ("openimp.system", "State"),
+    "System": ("openimp.system", "System"),
+    "compile": ("openimp.system", "compile_model"),
+}
+
+
+def __getattr__(name: str) -> Any:
+    """A public name, imported from its module on first use (PEP 562)."""
+    where = _WHERE.get(name)
+    if where is None:
+        raise AttributeError(f"module 'openimp' has no attribute {name!r}")
+    value = getattr(importlib.import_module(where[0]), where[1])
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))
+
 
 __version__ = "0.1.0"
 

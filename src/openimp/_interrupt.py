@@ -15,7 +15,33 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from types import FrameType
 
-__all__ = ["held_interrupt"]
+__all__ = ["deferred_interrupt", "held_interrupt"]
+
+
+@contextmanager
+def deferred_interrupt() -> Iterator[list[bool]]:
+    """Within the block a first SIGINT only sets ``flag[0]``; a second raises
+    KeyboardInterrupt.  For Python called back from compiled kernels (numba's object
+    mode cannot take an exception raised at an arbitrary bytecode: it surfaces as a
+    SystemError): the callbacks and the kernels' clock poll the flag and stop at a safe
+    point, where the caller raises KeyboardInterrupt.  Yields ``flag``.  Outside the main
+    thread, and when SIGINT is not Python's default handler, nothing changes."""
+    flag = [False]
+    if (threading.current_thread() is not threading.main_thread()
+            or signal.getsignal(signal.SIGINT) is not signal.default_int_handler):
+        yield flag
+        return
+
+    def handler(signum: int, frame: FrameType | None) -> None:
+        if flag[0]:
+            raise KeyboardInterrupt
+        flag[0] = True
+
+    signal.signal(signal.SIGINT, handler)
+    try:
+        yield flag
+    finally:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 @contextmanager

@@ -40,6 +40,24 @@ class InputError(OpenIMPError, ValueError):
         return msg
 
 
+class UnknownNameError(InputError, KeyError):
+    """A name a result does not hold (:class:`Named`): an :class:`InputError` that is
+    also the ``KeyError`` a mapping raises."""
+
+
+class Named(dict):  # type: ignore[type-arg]
+    """A result's mapping name -> values whose missing name is an :class:`UnknownNameError`
+    naming the mapping and the names it holds."""
+
+    def __init__(self, what: str, items: Mapping[str, Any]) -> None:
+        super().__init__(items)
+        self.what = what
+
+    def __missing__(self, key: Any) -> Any:
+        names = ", ".join(map(str, self)) or "none"
+        raise UnknownNameError(f"{self.what} has no {key!r}; it holds: {names}")
+
+
 class OutputError(OpenIMPError, OSError):
     """A result file cannot be written; ``path`` names it (never a temporary file)."""
 

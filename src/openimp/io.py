@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import csv
 import json
+import math
 import os
 from collections.abc import Sequence
 from io import StringIO
@@ -63,12 +64,14 @@ def csv_files(runs: Sequence[Run]) -> list[tuple[str, str]]:
 
 
 def _csv_text(t: Table) -> str:
-    """One table as CSV: a header ``column [unit]``, then rows of full-precision numbers."""
+    """One table as CSV: a header ``column [unit]``, then rows of full-precision numbers;
+    an undefined value (any number that is not finite) is ``nan``, as it is ``null`` in
+    JSON and ``????`` in a listing."""
     buf = StringIO()
     w = csv.writer(buf)
     w.writerow([f"{c} [{u}]" if u else c for c, u in zip(t.columns, t.units)])
     rows = np.asarray(t.rows, dtype=float)
-    w.writerows([[repr(v) for v in r] for r in rows.tolist()])
+    w.writerows([[repr(v) if math.isfinite(v) else "nan" for v in r] for r in rows.tolist()])
     return buf.getvalue()
 
 

@@ -11,7 +11,10 @@ asks for can exhaust memory, run for ever or overflow the 4x4 arithmetic:
 * input rates (DATA VELOCITY, DATA ACCEL and the derivatives of DATA MOTION
   VALUEs) within ``±MAX_RATE``: accelerations grow as the square of a rate;
 * steps: at most ``MAX_STEPS`` output steps per EXECUTE (DATA TIME, DATA
-  POSITION), and at most ``MAX_RESULT_BYTES`` of results held per run;
+  POSITION) or per Python call (sweeps, equilibrium paths, frequencies, mode
+  animations), at most ``MAX_RUN_STEPS`` integration steps per time response
+  (the default cap; ZERO (FORCE)'s third number and ``max_steps`` lower it),
+  and at most ``MAX_RESULT_BYTES`` of results held per run;
 * files: a deck, a recalled file or a TABLE file holds at most
   ``MAX_FILE_BYTES``; a deck and everything it recalls at most
   ``MAX_READ_BYTES`` and ``MAX_STATEMENTS`` statements; RECALL INPUT nests at
@@ -54,6 +57,7 @@ __all__ = [
     "MAX_READ_BYTES",
     "MAX_RECALL_DEPTH",
     "MAX_RESULT_BYTES",
+    "MAX_RUN_STEPS",
     "MAX_STATEMENTS",
     "MAX_STEPS",
     "MAX_TABLE_ORDINATES",
@@ -70,6 +74,8 @@ MAX_NUMBER = 1e150
 MAX_RATE = 1e60
 #: Most output steps of one EXECUTE (DATA TIME final / print step, DATA POSITION steps).
 MAX_STEPS = 100_000
+#: Most integration steps of one time response (the default cap of a run).
+MAX_RUN_STEPS = 10_000_000
 #: Most bytes of results (postures, rates, point motions) one run may hold.
 MAX_RESULT_BYTES = 1 << 30
 #: Largest deck, recalled file or TABLE file.

@@ -23,7 +23,7 @@ from openimp.dynamics.inverse import (
     sweep_forces,
 )
 from openimp.dynamics.laws import law_values
-from openimp.errors import InputError, deprecated
+from openimp.errors import InputError, Named, deprecated
 from openimp.kinematics.inputs import positive
 from openimp.kinematics.sweep import (
     Drive,
@@ -237,5 +237,6 @@ def _result(system: System, trajectory: Trajectory, out: ForceOut, reactions: bo
         S2[:3, 3] *= Ls
         return trajectory.posture(b1) @ S1, trajectory.posture(b2) @ S2
 
-    return Forces(trajectory, drive, out.R, frames, out.eforce, out.eskip, out.energy[:, 0],
-                  out.energy[:, 1], power, messages, reactions)
+    return Forces(trajectory, Named("drive", drive), out.R, frames, out.eforce, out.eskip,
+                  out.energy[:, 0], out.energy[:, 1], Named("power", power), messages,
+                  reactions)

@@ -57,6 +57,7 @@ from openimp.dynamics.statics import (
 from openimp.errors import AnalysisError, InputError, renamed
 from openimp.kinematics.inputs import finite, names_of, positive, start_state
 from openimp.kinematics.track import tracker
+from openimp.limits import MAX_STEPS
 from openimp.results import Equilibrium, EquilibriumPath, SearchStatus, StepKind, Trajectory
 from openimp.system import DAMPER, State, System, make_data, make_dyn_data
 from openimp.workspace import WORKSPACES
@@ -664,6 +665,9 @@ def _steps(values: Any, what: str) -> np.ndarray:
                          f"{values!r}") from None
     if arr.ndim != 1 or not np.all(np.isfinite(arr)) or arr.size == 0:
         raise InputError(f"equilibria: {what} must be finite values, one per step")
+    if arr.size > MAX_STEPS:
+        raise InputError(f"equilibria: {arr.size} steps are more than {MAX_STEPS} (limit "
+                         "MAX_STEPS); take fewer, larger steps")
     return arr
 
 

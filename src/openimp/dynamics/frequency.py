@@ -25,6 +25,7 @@ import scipy.linalg
 from openimp.dynamics.modes import first_order, free_blocks, no_fgc
 from openimp.errors import AnalysisError, InputError
 from openimp.kinematics.inputs import floats
+from openimp.limits import MAX_STEPS
 from openimp.results import FrequencyResponse, Linearization, StateSpace, TransferFunction
 
 OUTPUT_KINDS = ("position", "velocity", "accel")
@@ -207,6 +208,9 @@ def frequency_response(lin: Linearization, input: Any, outputs: Any, w: Any
     wv = np.atleast_1d(floats(w, "frequency_response: w"))
     if wv.ndim != 1 or not np.all(np.isfinite(wv)) or np.any(wv < 0) or wv.size == 0:
         raise InputError("frequency_response: w must be finite frequencies >= 0 (rad/s)")
+    if wv.size > MAX_STEPS:
+        raise InputError(f"frequency_response: {wv.size} frequencies are more than {MAX_STEPS} "
+                         "(limit MAX_STEPS); give fewer")
     if lin.free.size == 0:
         raise AnalysisError(no_fgc("frequency_response", lin))
     MFF, DFF, KFF = free_blocks(lin)

@@ -51,25 +51,38 @@ WHY = {
                          "use a SPHERE for the gimbal",
     Stage.LOST_COORDINATES: "the free coordinates no longer describe the mechanism (a "
                             "singular posture)",
-    Stage.TOO_LARGE: "the step stays too large even at the smallest step",
+    Stage.TOO_LARGE: "the book's step moves a coordinate more than its largest displacement "
+                     "(a quarter radian or a quarter of the model's size) even at the smallest "
+                     "step allowed: a rate far too high, or a motion that grows without bound",
     Stage.UNDERFLOW: "the error control asked for a step below 1e-14 of the time (the motion "
                      "is discontinuous there, or the tolerance is below roundoff)",
     Stage.NEAR_CHANGE: "a change point (the loops' Jacobian singular, branches of motion "
                        "meeting) could not be passed",
     Stage.NO_PROGRESS: f"{stp.MAX_REJECTS} attempts in a row were rejected: the step makes "
                        "no progress (loosen the tolerance, or lower the smallest step)",
+    Stage.NOT_FINITE: "the accelerations, the loads or the motion came out infinite or "
+                      "undefined (NaN): a spring rate, mass, force or rate too large for the "
+                      "arithmetic, or a motion that grows without bound; check the sizes of "
+                      "the data",
+    Stage.TINY_STEP: "the error control asks for steps below {floor:.3g} s (1e-6 of the "
+                     "output step): a spring or load far too stiff or with a pole, a motion "
+                     "that grows without bound (a negative damper), or a rate far too high "
+                     "for the outputs asked for; "
+                     "give a smallest step (DATA TIME's second number, min_step) to go on "
+                     "with steps of that length whatever their error",
 }
 #: wall seconds between returns of a compiled run to Python (progress, Ctrl-C)
 TICK_SECONDS = 0.2
 
 
-def why(code: int) -> str:
-    """The message of a stage code (named by its :class:`Stage` member)."""
+def why(code: int, floor: float = 0.0) -> str:
+    """The message of a stage code (named by its :class:`Stage` member); ``floor``: the
+    run's step floor (s), which TINY_STEP names."""
     try:
         st = Stage(int(code))
     except ValueError:
         return f"the step failed (code {code})"
-    return WHY.get(st, f"the step failed ({st.name})")
+    return WHY.get(st, f"the step failed ({st.name})").replace("{floor:.3g}", f"{floor:.3g}")
 
 
 class Held:
@@ -159,7 +172,7 @@ class Run:
         w.scols[:] = drive.cols
         w.role[drive.cols] = 2
         w.rtol[0], w.atol[0] = opts.rtol, opts.atol
-        w.hmin[0], w.hmax[0] = opts.min_step, opts.max_step
+        w.hmin[0], w.hmax[0], w.hfloor[0] = opts.min_step, opts.max_step, opts.floor
         w.ptol[0], w.ctol[0], w.mtol[0] = opts.pivot_tol, opts.tol, opts.mass_tol
         w.fabs[0], w.fpct[0] = opts.force_error
         w.xmax[0] = XMAX
@@ -182,6 +195,8 @@ class Run:
         self.locating = False
         self.events: list[Event] = []
         self.error: BaseException | None = None
+        #: set by a Ctrl-C the caller defers (:func:`openimp._interrupt.deferred_interrupt`)
+        self.interrupt = [False]
         self.S: Any = None
         self.k = (system.KP, self.data.DP, system.YP, self.dyn.ZP)
         self.attempt = stp.book_attempt if self.book else stp.rk_attempt
@@ -198,7 +213,14 @@ class Run:
     # ---- the step's hooks
     def handle(self, what: int) -> int:
         """Answer the compiled step (:class:`~openimp.dynamics.hooks.Hook`); an exception
-        is kept for the caller and the step told it failed."""
+        is kept for the caller and the step told it failed.  A Ctrl-C deferred by the
+        caller (:attr:`interrupt`) ends the step here: the clock asks for Python, any
+        other hook fails with KeyboardInterrupt, raised by the caller."""
+        if self.interrupt[0]:
+            if what == hooks.Hook.TICK:
+                return 1
+            self.error = KeyboardInterrupt()
+            return hooks.FAILED
         try:
             if what == hooks.Hook.MOTION:
                 n = int(self.w.nmt[0])
@@ -297,6 +319,8 @@ class Run:
         if code != Stage.OK:
             self.failed(code)
             named = massless(system, S) if code == Stage.SINGULAR_MASS else ""
+            if code == Stage.NOT_FINITE:  # from the data: nothing was integrated yet
+                raise InputError(f"at the start (t = {t0:g} s): {why(code)}")
             raise AnalysisError(f"t = {t0:g} s: {named or why(code)}")
         w.qref[0] = w.quality[0]
         if w.events[0]:

@@ -31,6 +31,7 @@ from openimp.dynamics.linearize import (
 from openimp.errors import AnalysisError, InputError, deprecated
 from openimp.kinematics import sweep
 from openimp.kinematics.inputs import floats, named, names_of, per_step, positive
+from openimp.limits import MAX_STEPS
 from openimp.results import Linearization, ModeMap, Modes, Trajectory
 from openimp.system import System, make_data, make_dyn_data, make_state
 
@@ -398,8 +399,10 @@ def mode_motion(modes: Modes, mode: int = 0, amplitude: float = 0.1, steps: int 
                                       and 0 <= mode < modes.count):
         raise InputError(f"mode_motion: mode must be an index 0..{modes.count - 1}, got "
                          f"{mode!r}")
-    if isinstance(steps, bool) or not (isinstance(steps, (int, np.integer)) and steps >= 2):
-        raise InputError(f"mode_motion: steps must be an integer >= 2, got {steps!r}")
+    if isinstance(steps, bool) or not (isinstance(steps, (int, np.integer))
+                                       and 2 <= steps <= MAX_STEPS):
+        raise InputError(f"mode_motion: steps must be an integer in 2 ... {MAX_STEPS} (limit "
+                         f"MAX_STEPS), got {steps!r}")
     amp = positive(amplitude, "mode_motion: amplitude")
     lin = modes.linearization
     system = lin.system

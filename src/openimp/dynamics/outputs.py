@@ -41,9 +41,15 @@ def output_times(t_final: Any, print_step: Any, times: Any) -> np.ndarray:
         if t_final is not None or print_step is not None:
             raise InputError("give either times= or t_final (with print_step), not both")
         try:
-            t = np.asarray(times, dtype=float).reshape(-1)
+            t = np.asarray(times, dtype=float)
         except (TypeError, ValueError):
             raise InputError(f"times must be numbers, got {times!r}") from None
+        if t.ndim != 1:
+            raise InputError(f"times must be one row of output times, got an array of shape "
+                             f"{t.shape}")
+        if t.size > MAX_OUTPUTS + 1:
+            raise InputError(f"times: {t.size} output times are more than {MAX_OUTPUTS:g}; "
+                             "give fewer")
         if t.size < 2 or not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
             raise InputError("times must be at least two finite, strictly increasing times "
                              "(the first is the start)")

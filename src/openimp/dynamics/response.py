@@ -36,6 +36,7 @@ from typing import Any
 
 import numpy as np
 
+from openimp._interrupt import deferred_interrupt
 from openimp.dynamics import stepping as stp
 from openimp.dynamics.integration import Drive, Held, Run, column, motions, why
 from openimp.dynamics.outputs import OutputBuffer, Progress, output_times, positive
@@ -45,6 +46,7 @@ from openimp.kinematics import singular as sing
 from openimp.kinematics.ballrates import spin_rates
 from openimp.kinematics.inputs import finite
 from openimp.kinematics.track import tracker
+from openimp.limits import MAX_NUMBER, MAX_RATE, MAX_RUN_STEPS, number_text
 from openimp.results import (
     CoordinateSwitch,
     EnergyAudit,
@@ -58,6 +60,12 @@ from openimp.system import State, System, make_state
 METHODS = ("rk", "book")
 #: steps per compiled call between progress reports (and chances for Ctrl-C)
 CHUNK_STEPS = 2000
+#: without a smallest step, a run stops with a located failure when the error control
+#: asks for a step below this fraction of the output spacing (MSC Adams' default HMIN
+#: of 1e-6 HMAX): a pole of a load, a motion that grows without bound, a rate far too
+#: high for the outputs asked for; a smallest step given (min_step, DATA TIME's second
+#: number) replaces it, and steps there are kept whatever their error
+STEP_FLOOR = 1e-6
 
 
 @dataclass(frozen=True)
@@ -68,7 +76,8 @@ class SimOptions:
     (FORCE) pair (force in model units, percent) of the book's step; step lengths
     in seconds; ``tol``: loop closure; ``pivot_tol``: the elimination's;
     ``mass_tol``: the singularity test of M_FF (ZERO (INERTIA)); ``max_steps``: a
-    cap on the steps of the run."""
+    cap on the steps of the run; ``floor``: without ``min_step``, the step below
+    which the run stops (:data:`STEP_FLOOR` of the output spacing), else 0."""
 
     method: str
     rtol: float
@@ -82,6 +91,7 @@ class SimOptions:
     mass_tol: float
     max_steps: int
     events: bool
+    floor: float
 
 
 def sim_options(tout: np.ndarray, method: str, rtol: Any, atol: Any, force_error: Any,
@@ -118,10 +128,13 @@ def sim_options(tout: np.ndarray, method: str, rtol: Any, atol: Any, force_error
                                                ("mass_tol", mass_tol))]
     if isinstance(max_steps, np.integer):
         max_steps = int(max_steps)
-    if not isinstance(max_steps, int) or isinstance(max_steps, bool) or max_steps < 1:
-        raise InputError(f"max_steps must be a positive integer, got {max_steps!r}")
+    if not isinstance(max_steps, int) or isinstance(max_steps, bool) or \
+            not 1 <= max_steps <= MAX_RUN_STEPS:
+        raise InputError(f"max_steps must be an integer in 1 ... {MAX_RUN_STEPS} (limit "
+                         f"MAX_RUN_STEPS), got {max_steps!r}")
+    floor = 0.0 if hmin > 0.0 else STEP_FLOOR * spacing
     return SimOptions(method, rt, at, (fa, fp), hmin, hmax, max(h1, hmin), *tols, max_steps,
-                      bool(events))
+                      bool(events), floor)
 
 
 def _renamed(new: Any, old: Any, new_name: str, old_name: str, default: Any) -> Any:
@@ -160,7 +173,7 @@ def simulate(
     progress: Any = None,
     stream: Any = None,
     keep: bool = True,
-    max_steps: int = 10_000_000,
+    max_steps: int = MAX_RUN_STEPS,
     q0: Any = None,
     force_tol: tuple[float, float] | None = None,
 ) -> Trajectory:
@@ -223,20 +236,26 @@ def simulate(
     if drive.timed:  # the motions over the run checked before it starts
         drive.at(tout, np.zeros((tout.size, drive.cols.size, 3)))
     r = Run(system, method, drive, opts, opts.events)
-    try:
-        r.start(S, float(tout[0]), q_given, qd_given, None if state is None else state.qd)
-        for joint, (cols, e) in balls.items():
-            if not np.allclose(S.q[cols], e, rtol=0.0, atol=1e-9):
-                raise InputError(f"rates: the angular velocity of {joint!r} was given at a "
-                                 "posture that closing the loops changes: give the posture of "
-                                 "the ball in q (or the rates of its parameters)")
-        r.names_before = r.fgc_names()
-        out = OutputBuffer(system, tout, bool(keep), stream)
-        bar = Progress(progress, float(tout[0]), float(tout[-1]))
-        wall = _time.perf_counter()
-        message = _integrate(r, out, bar, opts.max_steps)
-    finally:
-        r.close()
+    # Ctrl-C is deferred while Python is called back from the compiled step (an exception
+    # there would surface as a SystemError): the step stops at its next hook or tick
+    with deferred_interrupt() as r.interrupt:
+        try:
+            r.start(S, float(tout[0]), q_given, qd_given, None if state is None else state.qd)
+            if r.interrupt[0]:
+                raise KeyboardInterrupt
+            for joint, (cols, e) in balls.items():
+                if not np.allclose(S.q[cols], e, rtol=0.0, atol=1e-9):
+                    raise InputError(f"rates: the angular velocity of {joint!r} was given at "
+                                     "a posture that closing the loops changes: give the "
+                                     "posture of the ball in q (or the rates of its "
+                                     "parameters)")
+            r.names_before = r.fgc_names()
+            out = OutputBuffer(system, tout, bool(keep), stream)
+            bar = Progress(progress, float(tout[0]), float(tout[-1]))
+            wall = _time.perf_counter()
+            message = _integrate(r, out, bar, opts.max_steps)
+        finally:
+            r.close()
     return _response(system, r, out, drive, message, _time.perf_counter() - wall)
 
 
@@ -254,6 +273,8 @@ def _integrate(r: Run, out: OutputBuffer, bar: Progress, max_steps: int) -> str:
                 code = r.advance(out, min(CHUNK_STEPS, max_steps - steps0))
                 out.flush()
                 bar(float(w.t[0]))
+                if r.interrupt[0]:  # deferred at a tick or a hook: the outputs are whole
+                    raise KeyboardInterrupt
                 if code == RunEnd.REACHED:
                     break
                 steps0 = int(w.steps[0])
@@ -267,7 +288,8 @@ def _integrate(r: Run, out: OutputBuffer, bar: Progress, max_steps: int) -> str:
                 else:
                     tfail = float(w.tfail[0])
                     tnow = tfail if math.isfinite(tfail) else tnow
-                    message = f"t = {tnow:.6g} s: {why(int(w.why[0]))}"
+                    text = why(int(w.why[0]), float(w.hfloor[0]))
+                    message = f"t = {tnow:.6g} s: {text}"
                 break
         if stopped[0]:
             message = (f"t = {float(w.t[0]):.6g} s: interrupted by the user (Ctrl-C); "
@@ -339,7 +361,12 @@ def _mapping(system: System, values: Any, what: str) -> dict[int, float]:
     out: dict[int, float] = {}
     for key, v in values.items():
         c = column(system, key, what)
-        out[c] = finite(v, f"{what}: the value of {key!r}") / system.var_scale[c]
+        x = finite(v, f"{what}: the value of {key!r}")
+        top, limit = (MAX_RATE, "MAX_RATE") if what == "rates" else (MAX_NUMBER, "MAX_NUMBER")
+        if abs(x) > top:
+            raise InputError(f"{what}: the value of {key!r} is {number_text(x)}, beyond "
+                             f"±{number_text(top)} (limit {limit})")
+        out[c] = x / system.var_scale[c]
     return out
 
 
@@ -367,6 +394,10 @@ def _interruptible() -> Iterator[list[bool]]:
     try:
         yield flag
     except KeyboardInterrupt:
+        flag[0] = True
+    except SystemError as exc:  # a second Ctrl-C inside a callback of compiled code
+        if not isinstance(exc.__cause__ or exc.__context__, KeyboardInterrupt):
+            raise
         flag[0] = True
 
 

@@ -107,6 +107,12 @@ class Stage(IntEnum):
     NEAR_CHANGE = 7
     #: MAX_REJECTS attempts in a row were rejected: the run makes no progress
     NO_PROGRESS = 8
+    #: the state, the accelerations or the force error came out infinite or NaN (an
+    #: element value or a rate the arithmetic cannot hold, or a blow-up)
+    NOT_FINITE = 9
+    #: the error control asked for a step below the floor w.hfloor (a fraction of the
+    #: output step: a pole, a growing motion, a rate too high for the outputs asked)
+    TINY_STEP = 10
 
 
 class Attempt(IntEnum):
@@ -145,11 +151,12 @@ class RunEnd(IntEnum):
 OK, NO_CLOSURE, SINGULAR_MASS = int(Stage.OK), int(Stage.NO_CLOSURE), int(Stage.SINGULAR_MASS)
 LOST_COORDINATES, TOO_LARGE = int(Stage.LOST_COORDINATES), int(Stage.TOO_LARGE)
 UNDERFLOW, PYTHON, NEAR_CHANGE = int(Stage.UNDERFLOW), int(Stage.PYTHON), int(Stage.NEAR_CHANGE)
+NO_PROGRESS, NOT_FINITE = int(Stage.NO_PROGRESS), int(Stage.NOT_FINITE)
+TINY_STEP = int(Stage.TINY_STEP)
 ACCEPTED, REJECTED, FAILED = int(Attempt.ACCEPTED), int(Attempt.REJECTED), int(Attempt.FAILED)
 REACHED, SWITCHED, STOPPED = int(RunEnd.REACHED), int(RunEnd.SWITCHED), int(RunEnd.STOPPED)
 CAPPED, FULL, EVENT = int(RunEnd.CAPPED), int(RunEnd.FULL), int(RunEnd.EVENT)
 CROSSED, PAUSED = int(RunEnd.CROSSED), int(RunEnd.PAUSED)
-NO_PROGRESS = int(Stage.NO_PROGRESS)
 H_MOTION_ROWS, H_LAWS, H_LAW_TERMS = int(Hook.MOTION), int(Hook.LAWS), int(Hook.LAW_TERMS)
 H_SNAP, H_SWITCH, H_TICK = int(Hook.SNAP), int(Hook.SWITCH), int(Hook.TICK)
 
@@ -225,6 +232,8 @@ WORK_FIELDS: tuple[Field, ...] = (
     Field("atol", "f", (1,), "absolute tolerance of the rk error per step"),
     Field("hmin", "f", (1,), "smallest step (s)"),
     Field("hmax", "f", (1,), "largest step (s)"),
+    Field("hfloor", "f", (1,), "without a smallest step: the run stops when the error "
+          "control asks for less (s)"),
     Field("ptol", "f", (1,), "pivot tolerance of the elimination"),
     Field("ctol", "f", (1,), "loop-closure tolerance of Newton"),
     Field("mtol", "f", (1,), "singularity test of M_FF (IMP's ZERO (INERTIA))"),
@@ -730,6 +739,15 @@ def _powers(YP: tuple, ZP: tuple, S: tuple, nf: int, cols: np.ndarray, W: Work,
     w.pw[DISSIPATED] = -damp
 
 
+@njit(nrt=False, inline="always")
+def finite(x: np.ndarray, n: int) -> bool:
+    """The first n entries of x are finite numbers (no inf, no NaN)."""
+    for i in range(n):
+        if not math.isfinite(x[i]):
+            return False
+    return True
+
+
 @njit(nrt=False)
 def evaluate(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | None,
              W: Work, srow: int) -> int:
@@ -739,7 +757,8 @@ def evaluate(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarr
     w.ke[0], w.pe[0].  The load laws (Python) are asked for their values once the
     elimination has given the joint rates they read (:data:`Hook.LAWS`).  Returns OK,
     SINGULAR_MASS, LOST_COORDINATES (the elimination no longer leaves exactly the FGCs
-    and SGCs) or PYTHON (a law failed)."""
+    and SGCs), NOT_FINITE (loads or accelerations infinite or NaN) or PYTHON (a law
+    failed)."""
     w = step_views(W.P)
     z = dyn_data_views(ZP)
     nq = S.q.shape[0]
@@ -785,8 +804,12 @@ def evaluate(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarr
             w.mscale[0] = max(w.mscale[0], w.Lc[i, i])
     for i in range(nF):
         w.mdiag[i] = w.Lc[i, i]
+    if not finite(w.rhs, nF):  # a load or a velocity product beyond the arithmetic
+        return NOT_FINITE
     if not cholesky_solve(w.Lc, nF, w.rhs, w.aF, w.mtol[0], w.mscale[0]):
         return SINGULAR_MASS
+    if not finite(w.aF, nF):
+        return NOT_FINITE
     w.mnow[0] = mass_pivot(w.Lc, w.mdiag, nF)
     i = 0
     s = 0
@@ -985,6 +1008,11 @@ def rk_finish(S: tuple, W: Work) -> int:
         err += (h * ex / sx) ** 2 + (h * ev / sv) ** 2
     err = math.sqrt(err / max(2 * nF, 1))
     w.err[0] = err
+    if not (math.isfinite(err) and finite(w.xs, nF) and finite(w.vs, nF)):
+        w.why[0] = NOT_FINITE  # an unusable step, never kept, even at the smallest length
+        w.hnext[0] = 0.2 * h
+        w.rejects[0] += 1
+        return REJECTED
     leap = w.leap[0] and (err <= LEAP_ERR or w.nears[0] >= NEAR_TRIES)
     if err <= 1.0 or h <= w.hmin[0] * (1.0 + 1e-12) or w.atmin[0] or leap:
         if err > 1.0:
@@ -1219,8 +1247,9 @@ def book_predict(W: Work) -> int:
     predicted accelerations v'_F there into w.ap.  The forcing is (11.13) with
     the SGC motion over the step as a quadratic in time (rate, acceleration and
     the jerk between the step's ends, w.ms[0] and w.ms[6]): exact for a linear
-    system under such an input, where the book freezes it.  Returns OK or
-    TOO_LARGE (a displacement above w.xmax[0], the book's step 7)."""
+    system under such an input, where the book freezes it.  Returns OK,
+    NOT_FINITE (the exponential overflowed: a step far too long for the stiffness)
+    or TOO_LARGE (a displacement above w.xmax[0], the book's step 7)."""
     w = step_views(W.P)
     M, D, K, F = W.lin.M, W.lin.D, W.lin.K, W.lin.F
     nF = w.nF[0]
@@ -1296,6 +1325,8 @@ def book_predict(W: Work) -> int:
     if balls:
         from_local(w.ball, w.bax, w.fcols, w.q0, w.v0, w.X1[1], w.X1[0], w.ap,
                    (w.xs, w.vs, w.ap), True, w.bs)
+    if not (finite(w.xs, nF) and finite(w.vs, nF) and finite(w.ap, nF)):
+        return NOT_FINITE  # max() above passes NaN over: tested apart
     if big > w.xmax[0]:
         return TOO_LARGE
     return OK
@@ -1390,9 +1421,14 @@ def book_finish(S: tuple, W: Work) -> int:
     if pct > 0.0:
         tol = min(tol, pct)
     tol = max(tol, noise)  # a percentage of no force at all (a free steady spin)
-    if err != err:  # NaN: the step is unusable
-        err = math.inf
     w.err[0] = err / tol
+    if not (finite(V[0], nF) and finite(V[1], nF) and math.isfinite(tol)):
+        # an unusable step, never kept (max() above passes NaN over)
+        w.err[0] = math.inf
+        w.why[0] = NOT_FINITE
+        w.hnext[0] = 0.5 * h
+        w.rejects[0] += 1
+        return REJECTED
     if err > 2.0 * tol and h > w.hmin[0] * (1.0 + 1e-12) and not (w.leap[0] or w.atmin[0]):
         w.hnext[0] = 0.5 * h
         w.rejects[0] += 1
@@ -1817,8 +1853,13 @@ def _after(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray
             if w.why[0] == OK:
                 w.why[0] = UNDERFLOW
             return STOPPED
+        if h <= w.hfloor[0]:
+            if w.why[0] == OK:
+                w.why[0] = TINY_STEP
+            return STOPPED
         if w.inrow[0] >= MAX_REJECTS:
-            w.why[0] = NO_PROGRESS
+            if w.why[0] != NOT_FINITE:
+                w.why[0] = NO_PROGRESS
             return STOPPED
         return -1
     if w.events[0]:
@@ -1835,8 +1876,13 @@ def _after(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray
 def _before(W: Work, O: Outputs, book: bool) -> int:
     """What the run loop does before an attempt: its length (:func:`begin_step`, the
     book's cut by :func:`land`), fitted to the output rows (FULL when they must be
-    flushed first), the step start kept for event location.  -1 to go on."""
+    flushed first), the step start kept for event location.  -1 to go on; STOPPED
+    (TINY_STEP) when the proposal fell below w.hfloor[0]."""
     w = step_views(W.P)
+    if w.hnext[0] < w.hfloor[0] and w.nears[0] == 0 and not w.leap[0]:
+        # the error control's proposal (not a cut to land, nor a pass of a change point)
+        w.why[0] = TINY_STEP
+        return STOPPED
     begin_step(W, O.times[O.times.shape[0] - 1])
     if book:
         land(W, O)

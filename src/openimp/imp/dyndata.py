@@ -46,7 +46,7 @@ from typing import Any
 import numpy as np
 
 from openimp import massprops
-from openimp.errors import InputError
+from openimp.errors import AnalysisError, InputError
 from openimp.imp.expr import SimulationStop
 from openimp.model import Model
 
@@ -95,6 +95,9 @@ class ValueLaws:
     times: np.ndarray | None = None
     resolve_state: Callable[[Any], Any] | None = None
     notes: list[str] = field(default_factory=list)
+    #: while integrating: (RETURN or END, where and when) of the first VALUE that
+    #: evaluated one; the run stops there (:func:`openimp.imp.run.dynamic.solve`)
+    halted: tuple[str, str] | None = None
     _told: set[tuple[str, str]] = field(default_factory=set)
 
     def value(self, name: str, step: int, label: str, where: Where,
@@ -115,6 +118,13 @@ class ValueLaws:
         try:
             v = float(self.values[name].evaluate(self.values, resolve, notes=why))
         except SimulationStop as stop:
+            if self.resolve_state is not None and state is not None:
+                # a time response: RETURN (END) stops it there, as in a motion
+                text = (f"{stop.where[0]}:{stop.where[1]}: VALUE {name} ({label}) evaluated "
+                        f"{stop.kind} at time {t or 0.0:.6f}")
+                if self.halted is None:
+                    self.halted = (stop.kind, text)
+                raise AnalysisError(text) from None
             v = math.nan
             why.append(f"{stop.where[0]}:{stop.where[1]}: it evaluates {stop.kind}, which "
                        "stops nothing here (the data of a load is not a motion)")
@@ -245,6 +255,15 @@ def _element_name(model: Model, kind: str, name: str, names: dict[tuple[str, str
     return key
 
 
+def _negative_damper(c: Any, what: str, where: Where, messages: list[str]) -> None:
+    """A located warning for a negative damper coefficient (kept: a self-excited model
+    may mean it), which feeds energy into the motion."""
+    if c is not None and float(c) < 0.0:
+        messages.append(f"{_loc(where)}warning: {what}: the coefficient {float(c):g} is "
+                        "negative: the damper feeds energy in and the motion grows; a time "
+                        "response stops when its steps fall below 1e-6 of the print step")
+
+
 def _one(data: list[Any], label: str, stmt: str, name: str, where: Where) -> Any:
     if len(data) > 1:
         raise InputError(f"{stmt} ({name}): {label.lower()} {name} takes one "
@@ -306,6 +325,7 @@ def _elements(state: Any, model: Model, laws: ValueLaws, dd: DynamicData,
                         cc = laws.term(c, 1.0, lab, where)
                         model.add_damper(key, p1, p2, law=lambda s, cc=cc: cc(s) * s.xd)
                     else:
+                        _negative_damper(c, what, where, messages)
                         model.add_damper(key, p1, p2, 0.0 if c is None else float(c))
                 else:
                     f = _one(data["loads"], label, stmt, name, where)
@@ -394,6 +414,7 @@ def _joint_loads(state: Any, model: Model, joints: dict[str, Any], laws: ValueLa
                             model.set_joint_damper(name, var=col,
                                                    law=lambda s, cc=cc: cc(s) * s.xd)
                         else:
+                            _negative_damper(c, what, where, messages)
                             model.set_joint_damper(name, float(c), var=col)
                     else:
                         f = parts[0]

@@ -860,17 +860,28 @@ class _Evaluator:
         b0, b1, b2 = self.ev(node.right)
         op = node.op
         if op == "+":
-            return (a0 + b0, a1 + b1, a2 + b2)
-        if op == "-":
-            return (a0 - b0, a1 - b1, a2 - b2)
-        if op == "*":
-            return (a0 * b0, a1 * b0 + a0 * b1, a2 * b0 + 2.0 * a1 * b1 + a0 * b2)
-        if op == "/":
+            out = (a0 + b0, a1 + b1, a2 + b2)
+        elif op == "-":
+            out = (a0 - b0, a1 - b1, a2 - b2)
+        elif op == "*":
+            out = (a0 * b0, a1 * b0 + a0 * b1, a2 * b0 + 2.0 * a1 * b1 + a0 * b2)
+        elif op == "/":
             if b0 == 0.0:
                 return self.undefined("division by zero", node)
             q = a0 / b0
             q1 = (a1 - q * b1) / b0
-            return (q, q1, (a2 - 2.0 * q1 * b1 - q * b2) / b0)
+            out = (q, q1, (a2 - 2.0 * q1 * b1 - q * b2) / b0)
+        else:
+            return self.power(node, (a0, a1, a2), (b0, b1, b2))
+        if not math.isfinite(out[0]) and math.isfinite(a0) and math.isfinite(b0):
+            # finite operands, a result beyond the arithmetic: said, as '@' says it
+            return self.undefined(f"'{op}' overflows ({a0:g} {op} {b0:g})", node)
+        return out
+
+    def power(self, node: BinOp, a: Jet, b: Jet) -> Jet:
+        """``a @ b`` with its derivatives."""
+        a0, a1, a2 = a
+        b0, b1, b2 = b
         # "@": a ** b computed with logarithms, as IMP did: the base must be > 0
         if a0 <= 0.0:
             return self.undefined(f"the base of '@' is {a0:g}; it must be > 0 (IMP computes "

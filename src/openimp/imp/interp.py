@@ -214,6 +214,9 @@ class State:
     extras: dict[str, Any] = field(default_factory=dict)
     #: UNIT (MASS): one user mass unit in force s^2/length (IMP's default: lbm, 1/386.088)
     unit_mass: float = UNIT_MASS_DEFAULT
+    #: the cap on the steps of a time response (ZERO (FORCE)'s third number; None: the
+    #: default of :func:`openimp.simulate`)
+    max_steps: int | None = None
     #: at a change point: the smooth branch or the other (REMARK OPENIMP BRANCH = ...)
     branch: str = "smooth"
     #: at a dead point of an input: stop or switch (REMARK OPENIMP DEAD POINT = ...)
@@ -1088,9 +1091,14 @@ class Interpreter:
         if what == "FORCE":
             if f["force_error"] <= 0 or f["percent_error"] <= 0:
                 raise self.error("both limits must be positive")
+            n = f.get("nsteps")
+            if n is not None and not 1 <= n <= limits.MAX_RUN_STEPS:
+                raise self.error(f"the step cap (third number) must lie in 1 ... "
+                                 f"{limits.MAX_RUN_STEPS} (limit MAX_RUN_STEPS), got {n}")
             if "FORCE" in self.state.zero:
                 self.msg("ZERO (FORCE) is redefined.")
             self.state.zero["FORCE"] = (f["force_error"], f["percent_error"])
+            self.state.max_steps = n  # a repeat without it restores the default
             return
         try:
             tol = limits.check_tolerance(f["tolerance"], "the tolerance")

@@ -301,7 +301,7 @@ FIELDS: dict[str, tuple[str, ...]] = {
     "UNIT MASS": ("value",), "PRINT ON": ("filename",), "IDENTIFY": ("types",),
     "ZERO DATA|SYSTEM|INERTIA|SPRING|INDETERM|ZERO": ("tolerance",),
     "ZERO POSITION|EQUILIB": ("tolerance", "nsteps"),
-    "ZERO FORCE": ("force_error", "percent_error"),
+    "ZERO FORCE": ("force_error", "percent_error", "nsteps"),
     "DELETE <names>": ("names", "all"), "DELETE PRINT|LIST|STORE|PLOT": ("kinds", "all"),
     "DEVICE": ("device",), "SHOW": ("color", "names", "all", "loops"),
     "ERASE": ("names", "all", "loops", "clear"), "AXES": ("length", "names", "all"),
@@ -854,6 +854,8 @@ def _h_control(ctx: _Ctx, cur: _Cursor, lead: str) -> None:
         if what == "FORCE":
             f["force_error"] = cur.number("force error")
             f["percent_error"] = cur.number("percent error")
+            n = cur.opt_number()  # openimp: the cap on the steps of one run
+            f["nsteps"] = None if n is None else round(n)
         else:
             f["tolerance"] = cur.number("tolerance")
             if what in ("POSITION", "EQUILIB"):

@@ -243,7 +243,7 @@ def _min_step(prep: Prepared, times: np.ndarray, notes: list[str]) -> float:
 
 def options(prep: Prepared, times: np.ndarray, notes: list[str]) -> dict[str, Any]:
     """The tolerances of :func:`openimp.simulate` from the deck's ZERO statements and
-    DATA TIME."""
+    DATA TIME (the step cap: ZERO (FORCE)'s third number)."""
     st = prep.spec.state
     opts: dict[str, Any] = {
         "method": METHOD,
@@ -253,6 +253,8 @@ def options(prep: Prepared, times: np.ndarray, notes: list[str]) -> dict[str, An
         "tol": float(st.tolerance("POSITION")[0]) if "POSITION" in st.zero else 1e-10,
         "pivot_tol": float(st.tolerance("SYSTEM")[0]) if "SYSTEM" in st.zero else 1e-10,
     }
+    if st.max_steps is not None:
+        opts["max_steps"] = int(st.max_steps)
     if "SPRING" in st.zero:
         notes.append(f"ZERO (SPRING) = {st.tolerance('SPRING')[0]:g} is accepted and not "
                      "needed: IMP only warned about a singular stiffness matrix, and "
@@ -350,6 +352,7 @@ def _integrate(prep: Prepared, span: np.ndarray, start: np.ndarray | None,
         laws.times = None
         laws.resolve_at = None
         laws.resolve_state = state_resolver(prep)
+        laws.halted = None
     try:
         return simulate(prep.system, times=span, q=_start(prep, start, q0),
                         rates=rates or None, motion=motions(prep, notes) or None,
@@ -392,9 +395,14 @@ def solve(prep: Prepared, times: np.ndarray, start: np.ndarray | None,
     dt = float(prep.spec.state.time[2])
     span = out_times if n > 1 else np.array([out_times[0], out_times[0] + (
         min(dt, SINGLE_SPAN) if dt > 0.0 else SINGLE_SPAN)])
+    laws = prep.built.dyn.laws
     try:
         res = _integrate(prep, span, start, notes, progress)
     except (InputError, AnalysisError) as exc:
+        if laws is not None and laws.halted is not None:  # RETURN at the start
+            sol = Solution(empty, times[:0])
+            _value_stop(sol, laws.halted, 0)
+            return sol
         return _failed(exc, float(out_times[0]), empty, times)
     except KeyboardInterrupt:
         sol = Solution(empty, times[:0], "interrupted by the user (Ctrl-C) before the first "
@@ -407,12 +415,28 @@ def solve(prep: Prepared, times: np.ndarray, start: np.ndarray | None,
     _mobility(res, len(prep.drivers))
     k = res.nsteps
     message = ""
-    if res.message:
+    halted = laws.halted if laws is not None else None
+    if res.message and halted is None:
         kept = (f"the {k} output(s) before it are listed" if k else "no output was reached")
         message = f"{res.message.rstrip('. ')}; {kept}"
     sol = Solution(res, np.asarray(out_times[:k], dtype=float), message)
     sol.response = res
     sol.interrupted = bool(getattr(res, "interrupted", False))
-    if pre.halt is not None and not message:
+    if halted is not None:
+        _value_stop(sol, halted, k)
+    elif pre.halt is not None and not message:
         record_halt(sol, prep, times, pre)
     return sol
+
+
+def _value_stop(sol: Solution, halted: tuple[str, str], k: int) -> None:
+    """RETURN or END evaluated by a VALUE of element data while integrating: the run
+    stops there, as it does for one in a motion (not a failure)."""
+    kind, text = halted
+    listed = f"the {k} output(s) before it are listed" if k else "no output was reached"
+    if kind == "END":
+        sol.stop = (f"{text}: the run stops there and no further EXECUTE runs (END in a VALUE "
+                    f"leaves IMP); {listed}")
+        sol.end = True
+    else:
+        sol.stop = f"{text}: the run stops there (RETURN in a VALUE); {listed}"
