@@ -504,7 +504,9 @@ class TestControl:
     def test_zero_force(self):
         s = one("ZERO FORC=20.0,5.0")
         assert (s.keyword, s.fields) == ("ZERO FORCE", {"force_error": 20.0,
-                                                        "percent_error": 5.0})
+                                                        "percent_error": 5.0, "nsteps": None})
+        s = one("ZERO (FORCE) = 0.1, 1, 20000")  # openimp: the cap on a run's steps
+        assert s.fields == {"force_error": 0.1, "percent_error": 1.0, "nsteps": 20000}
 
 
 # --------------------------------------------------------------------------- DELETE

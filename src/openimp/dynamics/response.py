@@ -288,7 +288,13 @@ def _integrate(r: Run, out: OutputBuffer, bar: Progress, max_steps: int) -> str:
                 else:
                     tfail = float(w.tfail[0])
                     tnow = tfail if math.isfinite(tfail) else tnow
-                    text = why(int(w.why[0]), float(w.hfloor[0]))
+                    code = int(w.why[0])
+                    text = why(code, float(w.hfloor[0]))
+                    cause = _floor_cause(r) if code == stp.TINY_STEP else code
+                    if cause != code:  # the step shrank as it neared a singular posture
+                        text = (f"{why(cause)} (ahead: the step fell below "
+                                f"{float(w.hfloor[0]):.3g} s, 1e-6 of the output step, as "
+                                "it neared it)")
                     message = f"t = {tnow:.6g} s: {text}"
                 break
         if stopped[0]:
@@ -302,6 +308,27 @@ def _integrate(r: Run, out: OutputBuffer, bar: Progress, max_steps: int) -> str:
         if out.stream is not None:
             out.stream.close()
     return message
+
+
+#: a step floor reached with the free coordinates' mass matrix or the quality index
+#: fallen below this fraction of their size at the start is a singular posture ahead
+SINGULAR_DIP = 1e-3
+
+
+def _floor_cause(r: Run) -> int:
+    """Why the step fell below its floor: a singular mass matrix ahead (its smallest
+    pivot, or a diagonal entry against the largest at the start, below SINGULAR_DIP), a
+    singular posture ahead, a limit of travel (the quality index below SINGULAR_DIP of its
+    reference: NO_CLOSURE, whose message names both), or
+    neither (TINY_STEP)."""
+    w = r.w
+    nF = int(w.nF[0])
+    if nF and (float(w.mnow[0]) < SINGULAR_DIP
+               or float(np.min(w.mdiag[:nF])) < SINGULAR_DIP * float(w.mscale[0])):
+        return stp.SINGULAR_MASS
+    if float(w.qref[0]) > 0.0 and float(w.qual0[0]) < SINGULAR_DIP * float(w.qref[0]):
+        return stp.NO_CLOSURE  # its message names a limit of travel and a singular posture
+    return stp.TINY_STEP
 
 
 def _initial(system: System, q: Any, rates: Any, state: State | None, t0: float

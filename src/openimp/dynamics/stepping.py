@@ -1879,8 +1879,9 @@ def _before(W: Work, O: Outputs, book: bool) -> int:
     flushed first), the step start kept for event location.  -1 to go on; STOPPED
     (TINY_STEP) when the proposal fell below w.hfloor[0]."""
     w = step_views(W.P)
-    if w.hnext[0] < w.hfloor[0] and w.nears[0] == 0 and not w.leap[0]:
-        # the error control's proposal (not a cut to land, nor a pass of a change point)
+    if w.hnext[0] < w.hfloor[0] and w.inrow[0] == 0 and w.nears[0] == 0 and not w.leap[0]:
+        # the error control's proposal after an accepted step (not a halving after a
+        # refused stage, whose cause _after reports; not a pass of a change point)
         w.why[0] = TINY_STEP
         return STOPPED
     begin_step(W, O.times[O.times.shape[0] - 1])
