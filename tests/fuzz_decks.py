@@ -448,7 +448,7 @@ def failures_of(status: int | None, stdout: str, stderr: str, deck: str) -> list
     """The failure classes shown by a case's exit status and output."""
     out: list[str] = []
     both = stdout + stderr
-    if status is not None and status not in (0, 1, 2):
+    if status is not None and status not in (0, 1, 2, 130):
         out.append("status")
     if "internal error" in both or "please report it" in both:
         out.append("internal")
@@ -562,7 +562,9 @@ def _changes(before: dict[str, bytes], after: dict[str, bytes], argv: list[str],
 
 #: decks whose runs compile every kernel the generated cases use
 WARM_DECKS = ("examples/fourbar.imp", "examples/cam.imp", "examples/rsur.imp",
-              "tests/decks/run_structure.imp", "tests/decks/run_gears.imp")
+              "tests/decks/run_structure.imp", "tests/decks/run_gears.imp",
+              "examples/engine.imp", "examples/counterbalanced_arm.imp", "examples/pendulum.imp",
+              "examples/fourbar_released.imp")
 
 
 def warm_up() -> None:

@@ -36,13 +36,14 @@ from __future__ import annotations
 import argparse
 import logging
 import os
+import signal
 import sys
 import time
 import warnings
 from collections.abc import Sequence
 from typing import Any, TextIO
 
-__all__ = ["main"]
+__all__ = ["entry", "main"]
 
 EXIT_OK = 0
 EXIT_FAILURE = 1
@@ -350,6 +351,7 @@ def _dispatch(argv: Sequence[str] | None) -> int:
         parser.print_help(sys.stderr)
         return EXIT_INPUT
     deck = getattr(args, "deck", None)
+    _STARTED["deck"] = deck
     log = logging.getLogger()
     handler = _LogNotes(deck)
     log.addHandler(handler)
@@ -364,15 +366,22 @@ def _dispatch(argv: Sequence[str] | None) -> int:
             _note_warnings(caught, deck)
 
 
+#: the deck of the command being run (for a Ctrl-C outside its runs)
+_STARTED: dict[str, str | None] = {"deck": None}
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``openimp`` command; returns the exit status."""
+    _STARTED["deck"] = None
     try:
         return _dispatch(argv)
     except SystemExit as exc:  # argparse --help / --version / usage errors
         code = exc.code
         return code if isinstance(code, int) else (0 if code is None else EXIT_INPUT)
-    except KeyboardInterrupt:
-        _err("openimp: interrupted (Ctrl-C)")
+    except KeyboardInterrupt:  # outside a run (a run keeps and says what it solved)
+        deck = _STARTED["deck"]
+        _err("openimp: interrupted (Ctrl-C)" + (f": {deck}: before any of its runs was "
+                                                  "solved; nothing was written" if deck else ""))
         return EXIT_INTERRUPTED
     except BrokenPipeError:
         return EXIT_OK
@@ -391,5 +400,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_FAILURE
 
 
+def entry() -> None:
+    """The ``openimp`` console command: :func:`main`, then exit with its status (a Ctrl-C
+    once the work is done changes nothing: without this, one landing while Python exits
+    kills it by SIGINT, status -2, after everything was written)."""
+    status = main()
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    sys.exit(status)
+
+
 if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())
+    entry()
