@@ -400,13 +400,32 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_FAILURE
 
 
+def _unraisable(u: Any) -> None:
+    """A Ctrl-C that landed in a callback Python cannot raise from (numba's compiler
+    calls back through ctypes) is delivered again to the main thread instead of printed
+    as an ignored exception with its traceback."""
+    if isinstance(u.exc_value, KeyboardInterrupt):
+        import _thread
+
+        _thread.interrupt_main()
+        return
+    sys.__unraisablehook__(u)
+
+
 def entry() -> None:
-    """The ``openimp`` console command: :func:`main`, then exit with its status (a Ctrl-C
-    once the work is done changes nothing: without this, one landing while Python exits
-    kills it by SIGINT, status -2, after everything was written)."""
+    """The ``openimp`` console command: :func:`main`, then exit with its status.  Once
+    main has returned everything is written: a Ctrl-C then changes nothing, and the
+    process ends without Python's finalization (a Ctrl-C that interrupted an import
+    could otherwise end the process by SIGINT, status -2, after main returned 130)."""
+    sys.unraisablehook = _unraisable
     status = main()
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    sys.exit(status)
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):  # a closed pipe: nothing more to say
+            pass
+    os._exit(status)
 
 
 if __name__ == "__main__":  # pragma: no cover
