@@ -279,3 +279,35 @@ def test_store_without_out_goes_to_the_decks_folder(tmp_path) -> None:
     assert not (work / "s_store.txt").exists()  # not the current directory
     text = (tmp_path / "s_store.txt").read_text()
     assert "# STORE VELOCITY point CP" in text
+
+
+def test_the_console_entry_exits_with_mains_status(tmp_path):
+    """``openimp.cli:entry`` (the console script) ends the process with main's status,
+    its output flushed (it skips Python's finalization, where a Ctrl-C that interrupted
+    an import turned a 130 into a death by SIGINT)."""
+    deck = tmp_path / "d.imp"
+    deck.write_text("ZPIN (BASE, CRANK) = A\nDATA POSITION (A) = 0, 10, 2\nLIST POSITION (A)\n"
+                    "EXECUTE\nEND\n")
+    for argv, status in ((["run", str(deck)], 0), (["check", str(tmp_path / "no.imp")], 2)):
+        p = subprocess.run([sys.executable, "-c", "import sys; from openimp.cli import entry; "
+                            f"sys.argv = ['openimp'] + {argv!r}; entry()"],
+                           capture_output=True, text=True)
+        assert p.returncode == status, p.stderr
+        if status == 0:
+            assert p.stdout.rstrip().endswith("20.000")
+            assert all(ln.startswith("openimp: note:") for ln in p.stderr.splitlines())
+
+
+def test_a_ctrl_c_in_a_callback_is_delivered_again():
+    """A KeyboardInterrupt Python could not raise (numba's compiler calls back through
+    ctypes) reaches the main thread again instead of printing an ignored traceback."""
+    import time
+    import types
+
+    from openimp import cli
+
+    u = types.SimpleNamespace(exc_type=KeyboardInterrupt, exc_value=KeyboardInterrupt(),
+                              exc_traceback=None, err_msg=None, object=None)
+    with pytest.raises(KeyboardInterrupt):
+        cli._unraisable(u)
+        time.sleep(5)  # the interrupt arrives at once; the sleep only waits for it
