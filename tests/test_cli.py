@@ -311,3 +311,21 @@ def test_a_ctrl_c_in_a_callback_is_delivered_again():
     with pytest.raises(KeyboardInterrupt):
         cli._unraisable(u)
         time.sleep(5)  # the interrupt arrives at once; the sleep only waits for it
+
+
+def test_an_error_caused_by_ctrl_c_is_an_interrupt(monkeypatch, capsys):
+    """A Ctrl-C inside an import can surface as another exception (a RuntimeError from a
+    class's __set_name__): the command ends as interrupted (130), not as an internal
+    error."""
+    from openimp import cli
+
+    def boom(argv):
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt as ki:
+            raise RuntimeError("Error calling __set_name__ on 'Field' instance") from ki
+
+    monkeypatch.setattr(cli, "_dispatch", boom)
+    assert cli.main(["run", "x.imp"]) == cli.EXIT_INTERRUPTED
+    err = capsys.readouterr().err
+    assert err.startswith("openimp: interrupted (Ctrl-C)") and "internal error" not in err

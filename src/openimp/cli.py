@@ -366,6 +366,25 @@ def _dispatch(argv: Sequence[str] | None) -> int:
             _note_warnings(caught, deck)
 
 
+def _interrupted() -> int:
+    deck = _STARTED["deck"]
+    _err("openimp: interrupted (Ctrl-C)" + (f": {deck}: before any of its runs was solved; "
+                                              "nothing was written" if deck else ""))
+    return EXIT_INTERRUPTED
+
+
+def _from_interrupt(exc: BaseException) -> bool:
+    """``exc`` was caused by a Ctrl-C (somewhere in its chain of causes)."""
+    seen: set[int] = set()
+    e: BaseException | None = exc
+    while e is not None and id(e) not in seen:
+        if isinstance(e, KeyboardInterrupt):
+            return True
+        seen.add(id(e))
+        e = e.__cause__ or e.__context__
+    return False
+
+
 #: the deck of the command being run (for a Ctrl-C outside its runs)
 _STARTED: dict[str, str | None] = {"deck": None}
 
@@ -379,15 +398,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         code = exc.code
         return code if isinstance(code, int) else (0 if code is None else EXIT_INPUT)
     except KeyboardInterrupt:  # outside a run (a run keeps and says what it solved)
-        deck = _STARTED["deck"]
-        _err("openimp: interrupted (Ctrl-C)" + (f": {deck}: before any of its runs was "
-                                                  "solved; nothing was written" if deck else ""))
-        return EXIT_INTERRUPTED
+        return _interrupted()
     except BrokenPipeError:
         return EXIT_OK
     except Exception as exc:
         from openimp.errors import InputError
 
+        if _from_interrupt(exc):  # a Ctrl-C inside an import (RuntimeError from __set_name__)
+            return _interrupted()
         if isinstance(exc, InputError):
             for line in _errors(exc):
                 _err(line)
