@@ -320,6 +320,8 @@ def _note_warnings(caught: list[warnings.WarningMessage], deck: str | None) -> N
 
     seen: set[str] = set()
     for w in caught:
+        if issubclass(w.category, ResourceWarning):
+            continue  # a file the import machinery had open when a Ctrl-C landed
         text = f"{w.category.__name__}: {printable(str(w.message), 120)}"
         if text not in seen:
             seen.add(text)
