@@ -15,7 +15,12 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from types import FrameType
 
-__all__ = ["deferred_interrupt", "held_interrupt"]
+__all__ = ["PENDING", "deferred_interrupt", "held_interrupt"]
+
+#: a Ctrl-C that landed where Python could not raise it (numba's compiler calls back
+#: through ctypes): the command's unraisable hook sets it, and the compile listener
+#: (:mod:`openimp._warm`) raises KeyboardInterrupt once the compile is over
+PENDING = [False]
 
 
 @contextmanager

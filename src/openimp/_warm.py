@@ -35,6 +35,7 @@ import time
 from collections.abc import Sequence
 from typing import Any, TextIO
 
+from openimp._interrupt import PENDING
 from openimp._jit import JIT_ENABLED
 
 #: A kernel the helper compiles last: its cache entry means the helper's work is done.
@@ -212,6 +213,9 @@ class Announcer:
             def on_end(self, ev: Any) -> None:
                 announcer.depth = max(0, announcer.depth - 1)
                 announcer.finished = time.monotonic()
+                if announcer.depth == 0 and PENDING[0]:  # a Ctrl-C kept during the compile
+                    PENDING[0] = False
+                    raise KeyboardInterrupt
 
         self._listener = _Listener()
         event.register("numba:compile", self._listener)

@@ -422,12 +422,13 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 def _unraisable(u: Any) -> None:
     """A Ctrl-C that landed in a callback Python cannot raise from (numba's compiler
-    calls back through ctypes) is delivered again to the main thread instead of printed
-    as an ignored exception with its traceback."""
+    calls back through ctypes) is kept and raised once the compile is over, instead of
+    printed as an ignored exception with its traceback (raising it at once, inside the
+    compiler, leaves numba's library without its compiled object)."""
     if isinstance(u.exc_value, KeyboardInterrupt):
-        import _thread
+        from openimp._interrupt import PENDING
 
-        _thread.interrupt_main()
+        PENDING[0] = True  # raised when the compile is over (openimp._warm)
         return
     sys.__unraisablehook__(u)
 
