@@ -605,6 +605,13 @@ def _interrupt_after_solving(tmp_path: Path, presses: int) -> tuple[int, str, Pa
     d = deck(tmp_path, "DATA POSITION (A) = 0, 0.0036, 100000\nPRINT POSITION (D)\n"
              "LIST POSITION (D)\nSTORE POSITION (D)\nEXECUTE\nDATA POSITION (A) = 0, 10, 3\n"
              "EXECUTE\nEND\n")
+    return _interrupt_at(tmp_path, d, "step = ", presses)
+
+
+def _interrupt_at(tmp_path: Path, d: Path, marker: str, presses: int = 1
+                  ) -> tuple[int, str, Path, Path]:
+    """`openimp run d --json r.json --csv c` with SIGINT sent ``presses`` times once a line
+    of its printout starts with ``marker``: (status, stderr, JSON path, CSV folder)."""
     js, cs = tmp_path / "r.json", tmp_path / "c"
     env = {**os.environ, "OPENIMP_NO_WARMUP": "1", "PYTHONUNBUFFERED": "1"}
     proc = subprocess.Popen([sys.executable, "-m", "openimp.cli", "run", str(d), "--json",
@@ -612,12 +619,12 @@ def _interrupt_after_solving(tmp_path: Path, presses: int) -> tuple[int, str, Pa
                             stderr=subprocess.PIPE, text=True, env=env)
     assert proc.stdout is not None
     for line in proc.stdout:
-        if line.startswith("step = "):
+        if line.startswith(marker):
             break
     for _ in range(presses):
         proc.send_signal(signal.SIGINT)
         time.sleep(0.2)
-    _out, err = proc.communicate(timeout=600)
+    _out, err = proc.communicate(timeout=900)
     return proc.returncode, err, js, cs
 
 
@@ -724,18 +731,9 @@ def test_ctrl_c_after_integrating_keeps_every_output(tmp_path: Path) -> None:
     integrated (its forces, listings and files being made) keeps all of them: the JSON
     tables, the CSV files and the STORE file are written whole, with every output."""
     d = _released_fourbar(tmp_path)
-    js, cs = tmp_path / "r.json", tmp_path / "c"
-    env = {**os.environ, "OPENIMP_NO_WARMUP": "1", "PYTHONUNBUFFERED": "1"}
-    proc = subprocess.Popen([sys.executable, "-m", "openimp.cli", "run", str(d), "--json",
-                             str(js), "--csv", str(cs)], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, env=env)
-    assert proc.stdout is not None
-    for line in proc.stdout:  # the printout is made once every output is solved
-        if "time = " in line:
-            break
-    proc.send_signal(signal.SIGINT)
-    _out, err = proc.communicate(timeout=900)
-    assert proc.returncode == 130, err
+    # the printout ("time = ...") is made once every output is solved
+    status, err, js, cs = _interrupt_at(tmp_path, d, "time = ")
+    assert status == 130, err
     assert "Traceback" not in err and "unexpectedly" not in err
     assert any(ln.startswith("openimp: interrupted (Ctrl-C)") for ln in err.splitlines()), err
     run = json.loads(js.read_text())["runs"][0]

@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import json
 import math
-import resource
 import subprocess
 import sys
 from pathlib import Path
@@ -36,22 +35,13 @@ import pytest
 from scipy.integrate import solve_ivp
 
 import openimp
+from helpers.decks import PENDULUM_HEAD, cpu_limit
 from openimp.errors import InputError
 from openimp.io import _csv_text
 from openimp.results import Table
 
-#: CPU seconds a deck run may take, compile included (cold on 2 cores: minutes)
-CPU_LIMIT = 900
-
 #: the pendulum of the fuzz findings: 2 (kg) at 0.25 m, 1/6 kg m^2 about its centre's axes
-HEAD = """\
-UNIT (MASS) = 1
-ZPIN (BASE, ARM) = A
-DATA ZPIN (A) = 0,0,0; 1,0,0; 1,0,0
-DATA MASS (ARM, A) = 2; 0.25, 0, 0
-DATA INERTIA (ARM, A) = 0, 0.1666667, 0.1666667, 0, 0, 0
-DATA GRAVITY = 0, -9.80665, 0
-"""
+HEAD = PENDULUM_HEAD
 TAIL = """\
 FIND DYNAMICS
 DATA IC (A) = -60, 1.5
@@ -65,10 +55,6 @@ INERTIA = 0.1666667
 MGC = 2.0 * 9.80665 * 0.25
 
 
-def _limit() -> None:
-    resource.setrlimit(resource.RLIMIT_CPU, (CPU_LIMIT, CPU_LIMIT))
-
-
 def _run(tmp_path: Path, body: str, tail: str = TAIL, head: str = HEAD
          ) -> tuple[int, str, str, dict | None]:
     deck = tmp_path / "deck.imp"
@@ -76,7 +62,7 @@ def _run(tmp_path: Path, body: str, tail: str = TAIL, head: str = HEAD
     out = tmp_path / "out.json"
     out.unlink(missing_ok=True)
     p = subprocess.run([sys.executable, "-m", "openimp.cli", "run", str(deck), "--json",
-                        str(out)], capture_output=True, text=True, preexec_fn=_limit,
+                        str(out)], capture_output=True, text=True, preexec_fn=cpu_limit,
                        cwd=tmp_path)
     assert "Traceback" not in p.stderr and "Warning" not in p.stderr, p.stderr[-2000:]
     doc = json.loads(out.read_text()) if out.exists() else None
@@ -237,7 +223,7 @@ def test_overflow_through_any_operator_is_said(tmp_path):
                     "DATA POSITION (A) = 0, 10, 2\nLIST VALUE (VM, VS, VP)\nEXECUTE\nEND\n")
     p = subprocess.run([sys.executable, "-m", "openimp.cli", "run", str(deck), "--csv",
                         str(tmp_path / "c")], capture_output=True, text=True,
-                       preexec_fn=_limit, cwd=tmp_path)
+                       preexec_fn=cpu_limit, cwd=tmp_path)
     assert p.returncode == 0
     assert "v.imp:2: VALUE (VM): '*' overflows (1e+308 * 1e+308)" in p.stdout + p.stderr
     assert "v.imp:3: VALUE (VS): '+' overflows" in p.stdout + p.stderr
@@ -317,7 +303,7 @@ def test_the_reproducers_end_as_expected(tmp_path, name):
     out = tmp_path / "o.json"
     p = subprocess.run([sys.executable, "-m", "openimp.cli", "run", str(deck), "--json",
                         str(out), "--csv", str(tmp_path / "c")], capture_output=True,
-                       text=True, preexec_fn=_limit, cwd=tmp_path)
+                       text=True, preexec_fn=cpu_limit, cwd=tmp_path)
     rc, phrase = REPRODUCERS[name]
     assert p.returncode in (rc if isinstance(rc, tuple) else (rc,)), p.stderr[-2000:]
     assert phrase in p.stdout + p.stderr

@@ -21,7 +21,6 @@ from __future__ import annotations
 import json
 import math
 import re
-import resource
 import subprocess
 import sys
 import textwrap
@@ -30,8 +29,7 @@ from pathlib import Path
 import numpy as np
 from scipy.integrate import solve_ivp
 
-#: CPU seconds a run may take, compile included (about 150 s cold on 2 cores, 2 s warm)
-CPU_LIMIT = 900
+from helpers.decks import PENDULUM_HEAD, cpu_limit
 
 PENDULUM = textwrap.dedent("""
     import json, math, openimp
@@ -50,13 +48,9 @@ PENDULUM = textwrap.dedent("""
 """)
 
 
-def _limit() -> None:
-    resource.setrlimit(resource.RLIMIT_CPU, (CPU_LIMIT, CPU_LIMIT))
-
-
 def _run(code: str) -> dict:
     p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                       preexec_fn=_limit)
+                       preexec_fn=cpu_limit)
     assert p.returncode == 0, p.stderr[-2000:]
     return json.loads(p.stdout.strip().splitlines()[-1])
 
@@ -74,13 +68,7 @@ def test_book_step_at_the_smallest_step_ends():
     assert np.abs(np.array(r["a"]) - sol.y[0]).max() < 2e-3
 
 
-PENDULUM_DECK = """\
-UNIT (MASS) = 1
-ZPIN (BASE, ARM) = A
-DATA ZPIN (A) = 0,0,0; 1,0,0; 1,0,0
-DATA MASS (ARM, A) = 2; 0.25, 0, 0
-DATA INERTIA (ARM, A) = 0, 0.1666667, 0.1666667, 0, 0, 0
-DATA GRAVITY = 0, -9.80665, 0
+PENDULUM_DECK = PENDULUM_HEAD + """\
 FIND DYNAMICS
 DATA IC (A) = -60, 1.5
 DATA TIME = 1.0, 0.03, 0.05
@@ -96,7 +84,7 @@ def _deck(tmp_path, name: str, text: str) -> subprocess.CompletedProcess:
     deck.write_text(text)
     return subprocess.run([sys.executable, "-m", "openimp.cli", "run", str(deck), "--json",
                            str(tmp_path / "out.json")], capture_output=True, text=True,
-                          preexec_fn=_limit, cwd=tmp_path)
+                          preexec_fn=cpu_limit, cwd=tmp_path)
 
 
 def test_decks_with_a_smallest_step_end(tmp_path):

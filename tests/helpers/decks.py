@@ -2,9 +2,30 @@
 
 from __future__ import annotations
 
+import resource
 from pathlib import Path
 
 from openimp.imp.deck import load
+
+#: CPU seconds a deck run in a subprocess may take, compile included (cold on 2 cores:
+#: minutes): a run that loops fails, a busy machine does not
+CPU_LIMIT = 900
+
+#: the fuzz findings' pendulum (issue 30): 2 (mass units) at 0.25 m, 1/6 kg m^2 about the
+#: pin; its dynamic part is added by the tests
+PENDULUM_HEAD = """\
+UNIT (MASS) = 1
+ZPIN (BASE, ARM) = A
+DATA ZPIN (A) = 0,0,0; 1,0,0; 1,0,0
+DATA MASS (ARM, A) = 2; 0.25, 0, 0
+DATA INERTIA (ARM, A) = 0, 0.1666667, 0.1666667, 0, 0, 0
+DATA GRAVITY = 0, -9.80665, 0
+"""
+
+
+def cpu_limit() -> None:
+    """``preexec_fn`` of a subprocess: at most CPU_LIMIT seconds of CPU."""
+    resource.setrlimit(resource.RLIMIT_CPU, (CPU_LIMIT, CPU_LIMIT))
 
 
 def run_deck(path: Path):
