@@ -9,13 +9,14 @@ caller then ends the run as interrupted), and a second Ctrl-C abandons it at onc
 
 from __future__ import annotations
 
+import contextlib
 import signal
 import threading
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from types import FrameType
 
-__all__ = ["PENDING", "deferred_interrupt", "held_interrupt"]
+__all__ = ["PENDING", "caused_by_interrupt", "deferred_interrupt", "held_interrupt"]
 
 #: a Ctrl-C that landed where Python could not raise it (numba's compiler calls back
 #: through ctypes): the command's unraisable hook sets it, and the compile listener
@@ -23,30 +24,27 @@ __all__ = ["PENDING", "deferred_interrupt", "held_interrupt"]
 PENDING = [False]
 
 
-@contextmanager
-def deferred_interrupt() -> Iterator[list[bool]]:
+def deferred_interrupt() -> contextlib.AbstractContextManager[list[bool]]:
     """Within the block a first SIGINT only sets ``flag[0]``; a second raises
-    KeyboardInterrupt.  For Python called back from compiled kernels (numba's object
-    mode cannot take an exception raised at an arbitrary bytecode: it surfaces as a
-    SystemError): the callbacks and the kernels' clock poll the flag and stop at a safe
-    point, where the caller raises KeyboardInterrupt.  Yields ``flag``.  Outside the main
-    thread, and when SIGINT is not Python's default handler, nothing changes."""
-    flag = [False]
-    if (threading.current_thread() is not threading.main_thread()
-            or signal.getsignal(signal.SIGINT) is not signal.default_int_handler):
-        yield flag
-        return
+    KeyboardInterrupt (:func:`held_interrupt` with nothing to say).  For Python called
+    back from compiled kernels (numba's object mode cannot take an exception raised at an
+    arbitrary bytecode: it surfaces as a SystemError): the callbacks and the kernels'
+    clock poll the flag and stop at a safe point, where the caller raises
+    KeyboardInterrupt.  Yields ``flag``."""
+    return held_interrupt(lambda: None)
 
-    def handler(signum: int, frame: FrameType | None) -> None:
-        if flag[0]:
-            raise KeyboardInterrupt
-        flag[0] = True
 
-    signal.signal(signal.SIGINT, handler)
-    try:
-        yield flag
-    finally:
-        signal.signal(signal.SIGINT, signal.default_int_handler)
+def caused_by_interrupt(exc: BaseException) -> bool:
+    """``exc`` was caused by a Ctrl-C (a KeyboardInterrupt in its chain of causes: a
+    SystemError out of a compiled callback, a RuntimeError out of an import)."""
+    seen: set[int] = set()
+    e: BaseException | None = exc
+    while e is not None and id(e) not in seen:
+        if isinstance(e, KeyboardInterrupt):
+            return True
+        seen.add(id(e))
+        e = e.__cause__ or e.__context__
+    return False
 
 
 @contextmanager

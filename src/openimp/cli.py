@@ -375,18 +375,6 @@ def _interrupted() -> int:
     return EXIT_INTERRUPTED
 
 
-def _from_interrupt(exc: BaseException) -> bool:
-    """``exc`` was caused by a Ctrl-C (somewhere in its chain of causes)."""
-    seen: set[int] = set()
-    e: BaseException | None = exc
-    while e is not None and id(e) not in seen:
-        if isinstance(e, KeyboardInterrupt):
-            return True
-        seen.add(id(e))
-        e = e.__cause__ or e.__context__
-    return False
-
-
 #: the deck of the command being run (for a Ctrl-C outside its runs)
 _STARTED: dict[str, str | None] = {"deck": None}
 
@@ -404,9 +392,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except BrokenPipeError:
         return EXIT_OK
     except Exception as exc:
+        from openimp._interrupt import caused_by_interrupt
         from openimp.errors import InputError
 
-        if _from_interrupt(exc):  # a Ctrl-C inside an import (RuntimeError from __set_name__)
+        if caused_by_interrupt(exc):  # inside an import (RuntimeError from __set_name__)
             return _interrupted()
         if isinstance(exc, InputError):
             for line in _errors(exc):

@@ -36,7 +36,7 @@ from typing import Any
 
 import numpy as np
 
-from openimp._interrupt import deferred_interrupt
+from openimp._interrupt import caused_by_interrupt, deferred_interrupt
 from openimp.dynamics import stepping as stp
 from openimp.dynamics.integration import Drive, Held, Run, column, motions, why
 from openimp.dynamics.outputs import OutputBuffer, Progress, output_times, positive
@@ -423,7 +423,7 @@ def _interruptible() -> Iterator[list[bool]]:
     except KeyboardInterrupt:
         flag[0] = True
     except SystemError as exc:  # a second Ctrl-C inside a callback of compiled code
-        if not isinstance(exc.__cause__ or exc.__context__, KeyboardInterrupt):
+        if not caused_by_interrupt(exc):
             raise
         flag[0] = True
 

@@ -36,7 +36,7 @@ import numpy as np
 from openimp.errors import AnalysisError, InputError
 from openimp.imp.expr import Expression, SimulationStop
 from openimp.imp.jointmap import cardan_angular_velocity, cardan_to_er, imp_variables
-from openimp.imp.run.kinematic import Motions, record_halt, time_only
+from openimp.imp.run.kinematic import Motions, record_halt, time_only, value_stop
 from openimp.imp.run.prepare import Driver, Prepared
 from openimp.imp.run.quantities import imp_variable
 from openimp.imp.run.solution import Solution
@@ -433,10 +433,5 @@ def _value_stop(sol: Solution, halted: tuple[str, str], k: int) -> None:
     """RETURN or END evaluated by a VALUE of element data while integrating: the run
     stops there, as it does for one in a motion (not a failure)."""
     kind, text = halted
-    listed = f"the {k} output(s) before it are listed" if k else "no output was reached"
-    if kind == "END":
-        sol.stop = (f"{text}: the run stops there and no further EXECUTE runs (END in a VALUE "
-                    f"leaves IMP); {listed}")
-        sol.end = True
-    else:
-        sol.stop = f"{text}: the run stops there (RETURN in a VALUE); {listed}"
+    value_stop(sol, kind, text,
+               f"the {k} output(s) before it are listed" if k else "no output was reached")

@@ -264,12 +264,19 @@ def record_halt(sol: Solution, prep: Prepared, times: np.ndarray, motions: Motio
               "no position was solved")
     if halt.kind == "LIMIT":
         sol.message = _stop_message(prep, times, k, motions, halt.text, want=False)
-    elif halt.kind == "END":
-        sol.stop = (f"{halt.text}: the run stops there and no further EXECUTE runs (END in a "
-                    f"VALUE leaves IMP); {listed}")
+    else:
+        value_stop(sol, halt.kind, halt.text, listed)
+
+
+def value_stop(sol: Solution, kind: str, text: str, listed: str) -> None:
+    """RETURN or END (``kind``) evaluated by a VALUE (``text``: where and when): the run
+    stops there, not as a failure; END also ends the deck.  ``listed``: what is kept."""
+    if kind == "END":
+        sol.stop = (f"{text}: the run stops there and no further EXECUTE runs (END in a VALUE "
+                    f"leaves IMP); {listed}")
         sol.end = True
     else:
-        sol.stop = f"{halt.text}: the run stops there (RETURN in a VALUE); {listed}"
+        sol.stop = f"{text}: the run stops there (RETURN in a VALUE); {listed}"
 
 
 def _why(msg: str) -> str:
