@@ -558,6 +558,10 @@ class System:
         ``key`` is a joint name (single-variable joints), ``"joint.var"`` or
         ``(joint, var)`` with the variable's name or 0-based index.
         """
+        if type(key) is str:  # the common case, by the table
+            c = self.var_lookup.get(key)
+            if c is not None:
+                return c
         if isinstance(key, tuple):
             joint, var = key
         elif isinstance(key, str) and key in self.joints:

@@ -43,7 +43,6 @@ import numpy as np
 
 from openimp.dynamics.laws import law_values_at
 from openimp.dynamics.statics import (
-    SEARCH_STATE,
     STEPPED,
     StepOptions,
     close_posture,
@@ -51,8 +50,8 @@ from openimp.dynamics.statics import (
     make_search_buffers,
     make_search_state,
     search_loop,
+    search_point,
     search_step,
-    static_point,
 )
 from openimp.errors import AnalysisError, InputError, renamed
 from openimp.kinematics.inputs import finite, names_of, positive, start_state
@@ -115,10 +114,33 @@ class SearchOptions:
 RENAMED = {"rtol": "force_rtol", "max_steps": "max_iter"}
 
 
+#: checked options by (where, path, items): a study repeats the same few (their checks
+#: cost a tenth of a search)
+_CHECKED: dict[tuple[Any, ...], SearchOptions] = {}
+
+
 def search_options(where: str, options: dict[str, Any], path: bool = False) -> SearchOptions:
     """The :class:`SearchOptions` of the keyword arguments ``options`` of ``where``
     (``path``: :func:`equilibria`, which takes ``progress``), every value checked;
     deprecated names (:data:`RENAMED`) are accepted with a DeprecationWarning."""
+    try:
+        key: tuple[Any, ...] | None = (where, path, *((k, type(v), v) for k, v in
+                                                      sorted(options.items())))
+        hit = _CHECKED.get(key)  # type: ignore[arg-type]
+    except TypeError:  # an unhashable value: checked below, not kept
+        key = hit = None
+    if hit is not None:
+        return hit
+    checked = _check_options(where, options, path)
+    if key is not None and not (options.keys() & RENAMED.keys()):  # each use warns
+        if len(_CHECKED) >= 64:
+            _CHECKED.clear()
+        _CHECKED[key] = checked
+    return checked
+
+
+def _check_options(where: str, options: dict[str, Any], path: bool) -> SearchOptions:
+    """:func:`search_options`, uncached."""
     o = renamed(where, options, RENAMED)
     known = set(SearchOptions.__dataclass_fields__) - (set() if path else {"progress"})
     unknown = sorted(o.keys() - known)
@@ -151,6 +173,10 @@ def search_options(where: str, options: dict[str, Any], path: bool = False) -> S
 
 
 # ----------------------------------------------------------------------------- the search
+#: the word of each step kind of the history, by code
+_KIND = {int(k): str(k) for k in StepKind}
+
+
 def _sym_eig(K: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Eigenvalues (ascending) and vectors of the symmetric part of K."""
     if K.size == 0:
@@ -174,9 +200,28 @@ class _Scratch:
         self.E = self.data.view("E")
         vs = system.var_scale.astype(float)
         gs = system.Y.gscale.copy()
-        self.bufs = make_search_buffers(nq, nb, vs, gs)
-        self.F, self.K, self.cols = self.bufs.now
+        # SP: the packed buffers the kernels take; b: their views, for Python
+        self.SP, self.b = make_search_buffers(nq, nb, vs, gs)
+        self.F, self.K, self.cols = self.b.F, self.b.K, self.b.cols
         self.loaded = _loaded(system)
+        self.laws = bool(system.laws)
+        # the StepOptions of the last search's SearchOptions (a study repeats them)
+        self.options: tuple[SearchOptions | None, StepOptions | None] = (None, None)
+
+    def step_options(self, opts: SearchOptions) -> StepOptions:
+        """The kernels' :class:`~openimp.dynamics.statics.StepOptions` of ``opts``."""
+        last, step = self.options
+        if last is opts and step is not None:
+            return step
+        step = StepOptions(
+            pivot_tol=float(opts.pivot_tol), rtol=float(opts.force_rtol),
+            force_tol=-1.0 if opts.force_tol is None else float(opts.force_tol),
+            step_tol=-1.0 if opts.step_tol is None else float(opts.step_tol),
+            limit=float(opts.step_limit), neutral=float(opts.neutral_tol),
+            stable=bool(opts.seek_stable), numeric_k=self.laws,
+            close_tol=CLOSE_TOL)
+        self.options = (opts, step)
+        return step
 
 
 class _Search:
@@ -193,18 +238,11 @@ class _Search:
         self.data, self.dyn, self.E = sc.data, sc.dyn, sc.E
         self.t = 0.0
         self.iterations = 0
-        self.opts = StepOptions(
-            pivot_tol=float(opts.pivot_tol), rtol=float(opts.force_rtol),
-            force_tol=-1.0 if opts.force_tol is None else float(opts.force_tol),
-            step_tol=-1.0 if opts.step_tol is None else float(opts.step_tol),
-            limit=float(opts.step_limit), neutral=float(opts.neutral_tol),
-            stable=bool(opts.seek_stable), numeric_k=bool(system.laws), close_tol=CLOSE_TOL)
+        self.opts = sc.step_options(opts)
         # the search's record (statics.SEARCH_STATE): the kernels take the (1,) array,
         # Python reads and writes its one record by field
         self.record = make_search_state()
-        # its one record as a view of the plain array: fields by item, 6x faster from
-        # Python than the recarray's attributes
-        self.state = self.record.view(dtype=np.dtype(SEARCH_STATE), type=np.ndarray)[0]
+        self.state = self.record[0]
 
     def release(self) -> None:
         """Give the scratch back to the system's pool."""
@@ -221,13 +259,13 @@ class _Search:
                                              np.zeros((1, S.q.size)), self.t)[0]
 
     def _point(self, S: State) -> tuple[int, int, float, float]:
-        """:func:`~openimp.dynamics.statics.static_point` at S.q with the laws' values
+        """:func:`~openimp.dynamics.statics.search_point` at S.q with the laws' values
         there, without the stiffness, counted: (nf, rank, potential, load scale)."""
         sy, sc = self.system, self.sc
         self._laws(S)
         self.state["evals"] += 1
-        return static_point(sy.KP, sc.data.DP, sy.YP, sc.dyn.ZP, S, sy.gen, self.o.pivot_tol,
-                            False, sc.bufs.now, sc.bufs.lin, sc.bufs.work)
+        return search_point(sy.KP, sc.data.DP, sy.YP, sc.dyn.ZP, S, sy.gen, self.o.pivot_tol,
+                            sc.SP)
 
     def evaluate(self, S: State) -> tuple[np.ndarray, np.ndarray]:
         """(cols, F) at the posture S.q (assembled or not), without the stiffness."""
@@ -250,7 +288,7 @@ class _Search:
             for h in (H_LAW, -H_LAW):
                 S.q[:] = q0 + h * G[:, j]
                 status, _, _ = close_posture(sy.KP, sc.data.DP, S, sy.gen, cols, CLOSE_TOL,
-                                             self.o.pivot_tol, 30, sc.bufs.keep)
+                                             self.o.pivot_tol, 30, sc.b.keep)
                 if status != 0:
                     S.q[:] = q0
                     raise AnalysisError("equilibrium: the loops do not close within "
@@ -277,7 +315,7 @@ class _Search:
         sc = self.sc
         status, self.iterations, q = close_posture(self.system.KP, sc.data.DP, S,
                                                    self.system.gen, cols, CLOSE_TOL,
-                                                   self.o.pivot_tol, 30, sc.bufs.keep)
+                                                   self.o.pivot_tol, 30, sc.b.keep)
         self.state["have"] = False
         if status == 0:
             self.state["quality"], self.state["closed"] = q, True
@@ -297,11 +335,11 @@ class _Search:
         if not sy.laws:  # the whole search in one compiled call
             hist = make_history(o.max_iter)
             code = search_loop(sy.KP, sc.data.DP, sy.YP, sc.dyn.ZP, S, sy.gen, opts, rec,
-                               sc.bufs, hist)
+                               sc.SP, hist)
             steps = int(st["steps"])
             counts["escape"], counts["neutral"] = int(st["escapes"]), int(st["neutral_steps"])
             h = hist.view(type=np.ndarray)[:steps]  # by column: one read per field
-            history = [(str(StepKind(k)), f, m) for k, f, m in zip(
+            history = [(_KIND[k], f, m) for k, f, m in zip(
                 h["kind"].tolist(), h["fmax"].tolist(), h["stepmax"].tolist(), strict=True)]
         else:  # load laws: their values and the stiffness refreshed at every step
             while True:
@@ -309,11 +347,11 @@ class _Search:
                 st["may_step"] = steps < o.max_iter
                 st["may_escape"] = counts["escape"] < 4 and steps < o.max_iter
                 code = search_step(sy.KP, sc.data.DP, sy.YP, sc.dyn.ZP, S, sy.gen, opts, rec,
-                                   sc.bufs)
+                                   sc.SP)
                 if code != STEPPED:
                     break
                 steps += 1
-                kind = str(StepKind(int(st["kind"])))
+                kind = _KIND[int(st["kind"])]
                 if kind in counts:
                     counts[kind] += 1
                 history.append((kind, float(st["fmax"]), float(st["stepmax"])))
@@ -324,7 +362,7 @@ class _Search:
             else:
                 st["may_step"] = st["may_escape"] = False
                 search_step(sy.KP, sc.data.DP, sy.YP, sc.dyn.ZP, S, sy.gen, opts, rec,
-                            sc.bufs)
+                            sc.SP)
         nf = int(st["nf"])
         cols = sc.cols[:nf].copy()
         scale = max(float(st["seen"]), float(st["scale"]))
@@ -341,7 +379,7 @@ class _Search:
         """Force tolerance per coordinate (internal units)."""
         o = self.o
         if o.force_tol is not None:
-            return o.force_tol / self.sc.bufs.gs[cols]
+            return o.force_tol / self.sc.b.gs[cols]
         return np.full(cols.size, o.force_rtol * max(scale, 1e-300))
 
 
@@ -436,8 +474,8 @@ def _result(system: System, search: _Search, S: State, raw: dict[str, Any], want
     """The :class:`~openimp.results.Equilibrium` of a finished search (model units)."""
     cols = raw["cols"]
     sc = search.sc
-    vs = sc.bufs.vs[cols]
-    gs = sc.bufs.gs[cols]
+    vs = sc.b.vs[cols]
+    gs = sc.b.gs[cols]
     Ls = system.length_scale
     names = [system.var_names[c] for c in cols]
     spec = S.sgc[cols].copy()
@@ -534,7 +572,7 @@ def _result(system: System, search: _Search, S: State, raw: dict[str, Any], want
     tr.set_rates(np.zeros((1, system.nq)), np.zeros((1, system.nq)), np.zeros(1))
     tr.time = np.array([S.time])
     eq = Equilibrium(
-        system=system, q=q_int * sc.bufs.vs, coords=names, specified=spec,
+        system=system, q=q_int * sc.b.vs, coords=names, specified=spec,
         converged=converged, status=status, steps=raw["steps"],
         evaluations=search.evaluations, residual=F, force_tol=ftol, stiffness=K,
         eigenvalues=lam, eigenvectors=vec, stability=stability, holding=holding,

@@ -123,13 +123,13 @@ def linearize(system: System, q: Any = None, rates: Any = None, accels: Any = No
     vs = system.var_scale
     psid = per_coordinate(system, rates, "linearize: rates")
     psidd = per_coordinate(system, accels, "linearize: accels")
-    if np.any(psid):
+    if psid.any():
         motion_accelerations(system, S, psid, psidd, named(system, accels), pivot_tol)
     scratch = WORKSPACES.take(system, "linearize", _scratch)  # given back when done
     data, dyn, out, work = scratch
     out.qdpl[:] = 0.0  # the joint rates at the closed postures: written only when moving
     nlaw = len(system.laws)
-    moving = motion_terms and bool(np.any(psid) or np.any(psidd))
+    moving = motion_terms and bool(psid.any() or psidd.any())
     opts = LinOptions(pivot_tol, CLOSE_TOL, H_MOTION, moving, nlaw > 0)
     if nlaw:
         # the laws at the set point's joint rates phi' psi': phi' from a first pass

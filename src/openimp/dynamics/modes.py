@@ -52,11 +52,11 @@ def check_mass(lin: Linearization, MFF: np.ndarray | None = None) -> None:
     """Raise InputError naming the free coordinates and the bodies that move without
     kinetic energy when M_FF of ``lin`` (or ``MFF``, its block) is singular (the one
     test and message of :mod:`~openimp.dynamics.eom`, as its :func:`mass_check`)."""
-    F = lin.free
     if MFF is None:
-        MFF = lin.M[np.ix_(F, F)]
+        MFF = lin.M[np.ix_(lin.free, lin.free)]
     v = null_motion(MFF, mass_floor(lin.system))
     if v is not None:  # the names only on failure: modes() is called per posture
+        F = lin.free
         raise InputError(massless_message([lin.coords[i] for i in F], lin.bodies[:, F],
                                           lin.system.bodies, v))
 

@@ -13,23 +13,22 @@ test, increment limit, neutral freedoms) is :mod:`~openimp.dynamics.equilibrium`
 
 from __future__ import annotations
 
+from collections import namedtuple
 from typing import NamedTuple
 
 import numpy as np
 
-from openimp._jit import njit
+from openimp._jit import njit, packed_views
 from openimp.dynamics.linear import (
     Linearized,
     LinWork,
     forces_at_rates,
     load_stiffness,
-    make_lin_work,
-    make_linearized,
     set_point,
 )
 from openimp.kinematics.posture import newton
 from openimp.linalg import full_pivot, sym_eigen
-from openimp.system import data_views, dyn_data_views
+from openimp.system import Field, allocate, data_views, dyn_data_views, layout_of, views
 
 
 class Evaluation(NamedTuple):
@@ -159,9 +158,10 @@ SEARCH_STATE = np.dtype([
 ])
 
 
-def make_search_state() -> np.recarray:
-    """A zeroed :data:`SEARCH_STATE` record, as a (1,) record array: ``rec[0].nf``."""
-    return np.recarray(1, SEARCH_STATE, buf=np.zeros(1, SEARCH_STATE))
+def make_search_state() -> np.ndarray:
+    """A zeroed :data:`SEARCH_STATE` record, as a (1,) structured array: ``rec[0]["nf"]``
+    (a plain array: a kernel call unboxes it in half the time of a record array)."""
+    return np.zeros(1, SEARCH_STATE)
 
 
 #: One step of a search's history (:func:`search_loop`).
@@ -172,62 +172,125 @@ STEP_RECORD = np.dtype([
 ])
 
 
-def make_history(max_steps: int) -> np.recarray:
-    """A zeroed (max_steps,) :data:`STEP_RECORD` record array."""
-    return np.recarray(max_steps, STEP_RECORD, buf=np.zeros(max_steps, STEP_RECORD))
+def make_history(max_steps: int) -> np.ndarray:
+    """A zeroed (max_steps,) :data:`STEP_RECORD` structured array."""
+    return np.zeros(max_steps, STEP_RECORD)
 
 
-class SearchBuffers(NamedTuple):
-    """The arrays of a search of a system of nq joint variables (internal units)."""
+#: The arrays of a search of a system (internal units), packed (:func:`make_search_buffers`)
+#: and unpacked in a kernel by :func:`search_views`: one argument instead of 47 arrays
+#: (a call's argument unboxing cost more than a search step).  Sizes: nq joint
+#: variables, nq1 = nq + 1, nb bodies.  ``F``, ``K``, ``cols`` are the evaluation at
+#: S.q (valid when the record's ``have``), ``F1``, ``K1``, ``cols1`` a trial's; ``l*`` the
+#: :class:`~openimp.dynamics.linear.Linearized` and ``w*`` the
+#: :class:`~openimp.dynamics.linear.LinWork` that :func:`static_point` writes in.
+SEARCH_FIELDS: tuple[Field, ...] = (
+    Field("F", "f", ("nq",), "unbalanced generalized load at S.q (12.1), leading nf"),
+    Field("K", "f", ("nq", "nq"), "its stiffness of the loads at rest (12.2)"),
+    Field("cols", "i", ("nq",), "its generalized coordinates"),
+    Field("F1", "f", ("nq",), "F at a trial posture"),
+    Field("K1", "f", ("nq", "nq"), "K at a trial posture"),
+    Field("cols1", "i", ("nq",), "the generalized coordinates at a trial posture"),
+    Field("vs", "f", ("nq",), "model units of a coordinate per internal unit"),
+    Field("gs", "f", ("nq",), "model units of a generalized force per internal unit"),
+    Field("Gw", "f", ("nq", "nq"), "phi' of the FGCs"),
+    Field("q0", "f", ("nq",), "the posture at the step's start"),
+    Field("fidx", "i", ("nq",), "places of the FGCs among the coordinates"),
+    Field("FF", "f", ("nq",), "F on the FGCs"),
+    Field("KFF", "f", ("nq", "nq"), "K on the FGCs"),
+    Field("A", "f", ("nq", "nq1"), "[K_FF | F_F], eliminated (12.6)"),
+    Field("step", "f", ("nq",), "the step on the FGCs"),
+    Field("lam", "f", ("nq",), "eigenvalues of K_FF's symmetric part"),
+    Field("V", "f", ("nq", "nq"), "its eigenvectors"),
+    Field("W", "f", ("nq", "nq"), "scratch of the eigen-solver"),
+    Field("x0", "f", ("nq",), "the Newton step"),
+    Field("red", "f", ("nq",), "the neutral group's reduced load"),
+    Field("rleft", "b", ("nq",), "rows left by the full pivoting"),
+    Field("cleft", "b", ("nq",), "columns left (the neutral group)"),
+    Field("prow", "i", ("nq",), "pivot rows"),
+    Field("pcol", "i", ("nq",), "pivot columns"),
+    Field("keep", "b", ("nq",), "scratch of close_posture"),
+    Field("lM", "f", ("nq", "nq"), "Linearized.M (not written by static_point)"),
+    Field("lD", "f", ("nq", "nq"), "Linearized.D (not written)"),
+    Field("lK", "f", ("nq", "nq"), "Linearized.K (not written)"),
+    Field("lF", "f", ("nq",), "Linearized.F (not written)"),
+    Field("lP2", "f", ("nq", "nq", "nq"), "Linearized.P2: phi''_{a,jk}"),
+    Field("lA2", "f", ("nb", "nq", "nq", 6), "Linearized.A2: A_{b,jk}"),
+    Field("lGl", "f", ("nq", 0), "Linearized.Gl (no load laws in a compiled search)"),
+    Field("lqpl", "f", ("nq", 4, "nq"), "Linearized.qpl (not written)"),
+    Field("lqdpl", "f", ("nq", 4, "nq"), "Linearized.qdpl (not written)"),
+    Field("wu", "f", ("nq",), "LinWork.u"),
+    Field("wa", "f", ("nq",), "LinWork.a"),
+    Field("wzero", "f", ("nq",), "LinWork.zero"),
+    Field("wcv", "f", ("nq",), "LinWork.cv"),
+    Field("wQv", "f", ("nq",), "LinWork.Qv"),
+    Field("wcp", "f", ("nq",), "LinWork.cp"),
+    Field("wQp", "f", ("nq",), "LinWork.Qp"),
+    Field("wr", "f", ("nq",), "LinWork.r"),
+    Field("wdF", "f", ("nb", 6), "LinWork.dF"),
+    Field("wdfq", "f", ("nq",), "LinWork.dfq"),
+    Field("wq0", "f", ("nq",), "LinWork.q0"),
+    Field("wsgc0", "b", ("nq",), "LinWork.sgc0"),
+    Field("wMw", "f", ("nq", "nq"), "LinWork.Mw"),
+)
 
-    now: Evaluation  #: the evaluation at S.q (valid when the record's ``have``)
-    trial: Evaluation  #: a trial posture's
-    lin: Linearized  #: P2, A2: second derivatives (scratch of :func:`static_point`)
-    work: LinWork  #: scratch of :func:`static_point`
-    vs: np.ndarray  #: (nq,) model units of a coordinate per internal unit
-    gs: np.ndarray  #: (nq,) model units of a generalized force per internal unit
-    Gw: np.ndarray  #: (nq, nq) phi' of the FGCs
-    q0: np.ndarray  #: (nq,) the posture at the step's start
-    fidx: np.ndarray  #: (nq,) int, places of the FGCs among the coordinates
-    FF: np.ndarray  #: (nq,) F on the FGCs
-    KFF: np.ndarray  #: (nq, nq) K on the FGCs
-    A: np.ndarray  #: (nq, nq + 1) [K_FF | F_F], eliminated (12.6)
-    step: np.ndarray  #: (nq,) the step on the FGCs
-    lam: np.ndarray  #: (nq,) eigenvalues of K_FF's symmetric part
-    V: np.ndarray  #: (nq, nq) its eigenvectors
-    W: np.ndarray  #: (nq, nq) scratch of the eigen-solver
-    x0: np.ndarray  #: (nq,) the Newton step
-    red: np.ndarray  #: (nq,) the neutral group's reduced load
-    rleft: np.ndarray  #: (nq,) bool, rows left by the full pivoting
-    cleft: np.ndarray  #: (nq,) bool, columns left (the neutral group)
-    prow: np.ndarray  #: (nq,) int, pivot rows
-    pcol: np.ndarray  #: (nq,) int, pivot columns
-    keep: np.ndarray  #: (nq,) bool scratch of :func:`close_posture`
+SearchBuffers = namedtuple("SearchBuffers", [f.name for f in SEARCH_FIELDS])  # type: ignore[misc]
+
+#: ``search_views(SP)``: the :data:`SEARCH_FIELDS` of packed search buffers as named
+#: views (a :class:`SearchBuffers`), inside a kernel
+search_views = packed_views(layout_of(SEARCH_FIELDS), SearchBuffers)
 
 
-def make_search_buffers(nq: int, nb: int, vs: np.ndarray, gs: np.ndarray) -> SearchBuffers:
-    """Zeroed :class:`SearchBuffers` for nq joint variables and nb bodies, with the
-    coordinate and force scales vs, gs (nq,)."""
-    f = np.zeros
-    return SearchBuffers(
-        now=make_evaluation(nq), trial=make_evaluation(nq), lin=make_linearized(nq, nb, 0),
-        work=make_lin_work(nq, nb), vs=vs, gs=gs, Gw=f((nq, nq)), q0=f(nq),
-        fidx=f(nq, np.int64), FF=f(nq), KFF=f((nq, nq)), A=f((nq, nq + 1)), step=f(nq),
-        lam=f(nq), V=f((nq, nq)), W=f((nq, nq)), x0=f(nq), red=f(nq),
-        rleft=f(nq, np.bool_), cleft=f(nq, np.bool_), prow=f(nq, np.int64),
-        pcol=f(nq, np.int64), keep=f(nq, np.bool_))
+def make_search_buffers(nq: int, nb: int, vs: np.ndarray, gs: np.ndarray
+                        ) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray], SearchBuffers]:
+    """Zeroed packed :data:`SEARCH_FIELDS` for nq joint variables and nb bodies, with the
+    coordinate and force scales vs, gs (nq,): (SP, its views on the Python side)."""
+    SP = allocate(SEARCH_FIELDS, {"nq": nq, "nq1": nq + 1, "nb": nb})
+    b = SearchBuffers(*views(SEARCH_FIELDS, SP))
+    b.vs[:] = vs
+    b.gs[:] = gs
+    return SP, b
+
+
+@njit(nrt=False)
+def _evaluation(b: SearchBuffers, trial: bool) -> Evaluation:
+    """The evaluation at S.q (``now``) or at a trial posture, as an :class:`Evaluation`."""
+    if trial:
+        return Evaluation(b.F1, b.K1, b.cols1)
+    return Evaluation(b.F, b.K, b.cols)
+
+
+@njit(nrt=False)
+def _lin(b: SearchBuffers) -> Linearized:
+    return Linearized(b.lM, b.lD, b.lK, b.lF, b.lP2, b.lA2, b.lGl, b.lqpl, b.lqdpl)
+
+
+@njit(nrt=False)
+def _work(b: SearchBuffers) -> LinWork:
+    return LinWork(b.wu, b.wa, b.wzero, b.wcv, b.wQv, b.wcp, b.wQp, b.wr, b.wdF, b.wdfq,
+                   b.wq0, b.wsgc0, b.wMw)
+
+
+@njit(nrt=False)
+def search_point(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
+                 gen: np.ndarray | None, ptol: float, SP: tuple
+                 ) -> tuple[int, int, float, float]:
+    """:func:`static_point` at S.q without the stiffness, into the evaluation ``F``,
+    ``cols`` of the packed search buffers SP (:data:`SEARCH_FIELDS`)."""
+    b = search_views(SP)
+    return static_point(KP, DP, YP, ZP, S, gen, ptol, False, _evaluation(b, False), _lin(b),
+                        _work(b))
 
 
 @njit(nrt=False)
 def _evaluate(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | None,
-              opts: StepOptions, state: np.ndarray, at: Evaluation, bufs: SearchBuffers
-              ) -> int:
-    """:func:`static_point` at S.q into ``at`` (K only without numeric_k); counts in the
-    record state[0]."""
+              opts: StepOptions, state: np.ndarray, b: SearchBuffers, trial: bool) -> int:
+    """:func:`static_point` at S.q into the evaluation ``now`` of b (or, ``trial``, a
+    trial's; K only without numeric_k); counts in the record state[0]."""
     st = state[0]
     want_k = not opts.numeric_k
-    nf, rank, pe, scale = static_point(KP, DP, YP, ZP, S, gen, opts.pivot_tol, want_k, at,
-                                       bufs.lin, bufs.work)
+    nf, rank, pe, scale = static_point(KP, DP, YP, ZP, S, gen, opts.pivot_tol, want_k,
+                                       _evaluation(b, trial), _lin(b), _work(b))
     st.nf = nf
     st.rank = rank
     st.pe = pe
@@ -240,21 +303,23 @@ def _evaluate(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndar
 
 @njit(nrt=False)
 def search_step(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | None,
-                opts: StepOptions, state: np.ndarray, bufs: SearchBuffers) -> int:
+                opts: StepOptions, state: np.ndarray, SP: tuple) -> int:
     """One step of the equilibrium search (book 12.2-12.6) from the assembled S.q.
 
     opts: :class:`StepOptions`; state: a (1,) :data:`SEARCH_STATE` record array
-    (:func:`make_search_state`), kept between steps; bufs: :class:`SearchBuffers`:
-    bufs.now the evaluation at S.q (valid when state[0].have; with opts.numeric_k the
-    caller fills its K), bufs.trial a trial's, bufs.vs, bufs.gs the coordinate and force
-    scales (model = internal x scale), the rest scratch.  Returns STEPPED (S.q moved to
-    the accepted trial, whose evaluation is now in bufs.now), BALANCED, NO_FREE, CAPPED
-    (not balanced, no step allowed: state[0].may_step false) or FAILED (no trial closed
+    (:func:`make_search_state`), kept between steps; SP: the packed
+    :data:`SEARCH_FIELDS`: F, K, cols the evaluation at S.q (valid when state[0].have;
+    with opts.numeric_k the caller fills its K), F1, K1, cols1 a trial's, vs, gs the
+    coordinate and force scales (model = internal x scale), the rest scratch.  Returns
+    STEPPED (S.q moved to the accepted trial, whose evaluation is now in F, K, cols),
+    BALANCED, NO_FREE, CAPPED (not balanced, no step allowed: state[0].may_step false)
+    or FAILED (no trial closed
     and lowered the energy; S.q unchanged).  The record's kind, fmax, stepmax: the step
     taken, and the largest generalized force and coordinate change over it, model units.
     """
-    F, K, cols = bufs.now.F, bufs.now.K, bufs.now.cols
-    F1, K1, cols1 = bufs.trial.F, bufs.trial.K, bufs.trial.cols
+    bufs = search_views(SP)
+    F, K, cols = bufs.F, bufs.K, bufs.cols
+    F1, K1, cols1 = bufs.F1, bufs.K1, bufs.cols1
     vs, gs, Gw, q0, fidx = bufs.vs, bufs.gs, bufs.Gw, bufs.q0, bufs.fidx
     FF, KFF, A, step, x0 = bufs.FF, bufs.KFF, bufs.A, bufs.step, bufs.x0
     lam, V, W = bufs.lam, bufs.V, bufs.W
@@ -263,7 +328,7 @@ def search_step(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.nd
     z = dyn_data_views(ZP)
     nq = S.q.shape[0]
     if not st.have:
-        _evaluate(KP, DP, YP, ZP, S, gen, opts, state, bufs.now, bufs)
+        _evaluate(KP, DP, YP, ZP, S, gen, opts, state, bufs, False)
         st.have = True
     nf = st.nf
     seen = max(st.seen, st.scale)
@@ -360,7 +425,7 @@ def search_step(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.nd
             st.iter = it
             st.quality = det
             st.closed = True
-            nf1 = _evaluate(KP, DP, YP, ZP, S, gen, opts, state, bufs.trial, bufs)
+            nf1 = _evaluate(KP, DP, YP, ZP, S, gen, opts, state, bufs, True)
             ok = kind == ESCAPE or (kind == NEWTON and not seek)
             if not ok:
                 # the loads did non-negative work over the step (trapezoid rule, each end
@@ -472,8 +537,7 @@ def _choose(nF: int, npiv: int, bufs: SearchBuffers, eps: float, ftol: float, li
 
 @njit(nrt=False)
 def search_loop(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | None,
-                opts: StepOptions, state: np.ndarray, bufs: SearchBuffers,
-                hist: np.ndarray) -> int:
+                opts: StepOptions, state: np.ndarray, SP: tuple, hist: np.ndarray) -> int:
     """:func:`search_step` until the search ends (a model without load laws: one compiled
     call per search).  At most hist.shape[0] steps (the step cap); at most 4 of them
     leave an unstable equilibrium.  hist (max_steps,) :data:`STEP_RECORD` receives the
@@ -488,7 +552,7 @@ def search_loop(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.nd
     while True:
         st.may_step = steps < max_steps
         st.may_escape = escapes < 4 and steps < max_steps
-        code = search_step(KP, DP, YP, ZP, S, gen, opts, state, bufs)
+        code = search_step(KP, DP, YP, ZP, S, gen, opts, state, SP)
         if code != STEPPED or steps >= max_steps:  # (the second: never, by the cap)
             st.steps = steps
             st.escapes = escapes

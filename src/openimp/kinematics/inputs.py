@@ -44,17 +44,18 @@ def posture_input(system: System, q: Any, what: str = "q") -> np.ndarray:
             qm[system.var_index(key)] = finite(v, f"{what}[{key!r}]")
         return system.to_internal(qm).copy()
     try:
-        arr = np.asarray(q, dtype=float).reshape(-1)
+        arr = q.reshape(-1) if type(q) is np.ndarray and q.dtype == float else \
+            np.asarray(q, dtype=float).reshape(-1)
     except (TypeError, ValueError):
         raise InputError(f"{what} must be numbers, the {system.nq} joint variables, or a "
                          f"mapping of joint variables to values, got {q!r}") from None
-    if arr.shape != (system.nq,) or not np.all(np.isfinite(arr)):
+    if arr.shape != (system.nq,) or not np.isfinite(arr).all():
         raise InputError(
             f"{what} must hold {system.nq} finite numbers, one per joint variable "
             f"({', '.join(system.var_names)}), or map joint variables to values; got "
             f"{arr.size}"
         )
-    return system.to_internal(arr).copy()
+    return arr / system.var_scale  # (a new array: the caller's is not kept)
 
 
 def given_state(system: System, q: Any, state: Any, where: str, rates: Any = None
@@ -119,7 +120,7 @@ def per_coordinate(system: System, values: Any, what: str) -> np.ndarray:
             arr = np.asarray(values, dtype=float).reshape(-1)
         except (TypeError, ValueError):
             arr = np.zeros(0)
-        if arr.shape != (system.nq,) or not np.all(np.isfinite(arr)):
+        if arr.shape != (system.nq,) or not np.isfinite(arr).all():
             raise InputError(f"{what} must hold {system.nq} finite numbers, one per joint "
                              f"variable, or map joint variables to values, e.g. "
                              "{'crank': 10.0}")
