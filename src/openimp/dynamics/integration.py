@@ -73,6 +73,10 @@ WHY = {
 }
 #: wall seconds between returns of a compiled run to Python (progress, Ctrl-C)
 TICK_SECONDS = 0.2
+#: wall seconds of attempts between two questions to the clock (Hook.TICK); the count
+#: grows at most twofold per question, so a run whose attempts turn slow waits a few of
+#: these at worst before a Ctrl-C is seen
+TICK_GAP = 0.02
 
 
 def why(code: int, floor: float = 0.0) -> str:
@@ -203,8 +207,20 @@ class Run:
         self.run = stp.run_book if self.book else stp.run_rk
         self.names_before: tuple[str, ...] = ()
         self.ident = hooks.register(self.handle)
-        self.tick0 = _time.perf_counter()
+        self.tick0 = self.tick_last = _time.perf_counter()
         w.hook[0] = self.ident
+        w.tick[0] = stp.TICK_EVERY
+
+    def tick(self) -> int:
+        """The clock (Hook.TICK): 1 when TICK_SECONDS have passed since the run left
+        Python; sets the attempts to the next question to about TICK_GAP seconds' worth
+        at the pace since the last (at most twice as many as before)."""
+        now = _time.perf_counter()
+        n = int(self.w.tick[0])
+        pace = (now - self.tick_last) / max(n, 1)
+        self.tick_last = now
+        self.w.tick[0] = max(stp.TICK_EVERY, min(2 * n, int(TICK_GAP / max(pace, 1e-9))))
+        return int(now - self.tick0 > TICK_SECONDS)
 
     def close(self) -> None:
         """The run is over: its handler is forgotten."""
@@ -233,7 +249,7 @@ class Run:
                 if not self.locating:
                     self.snap = [a.copy() for a in self.W.P] + [self.law.copy()]
             elif what == hooks.Hook.TICK:
-                return int(_time.perf_counter() - self.tick0 > TICK_SECONDS)
+                return self.tick()
             elif what == hooks.Hook.SWITCH:
                 self.g_end = self.switch_fns.signs(self.instant, float(self.w.t[0]))
                 if np.any(crossed(self.g_start, self.g_end)):
@@ -420,7 +436,7 @@ class Run:
             left = max_steps - (int(w.steps[0]) - s0)
             if left <= 0:
                 return RunEnd.CAPPED
-            self.tick0 = _time.perf_counter()
+            self.tick0 = self.tick_last = _time.perf_counter()
             code = int(self.run(*self.k, S, self.system.gen, self.W, O, left))
             if code == RunEnd.PAUSED:
                 return code

@@ -198,7 +198,8 @@ MARGIN = 1.5
 #: attempts rejected in a row after which a run stops (NO_PROGRESS): every loop of the
 #: step ends
 MAX_REJECTS = 1000
-#: attempts between two questions to the handler's clock (Hook.TICK)
+#: attempts between the first two questions to the handler's clock (Hook.TICK); the
+#: handler then sets w.tick (an object-mode call costs about as much as an attempt)
 TICK_EVERY = 8
 #: attempts refused in a row next to a change point before the step is only halved
 NEAR_TRIES = 6
@@ -242,6 +243,8 @@ WORK_FIELDS: tuple[Field, ...] = (
     Field("xmax", "f", (1,), "largest displacement of a book step (internal units)"),
     Field("maxit", "i", (1,), "Newton iterations allowed to close the loops at a stage"),
     Field("hook", "i", (1,), "id of the run's Python handler (dynamics.hooks)"),
+    Field("tick", "i", (1,), "attempts between two questions to the handler's clock (the "
+          "handler sets it: TICK_EVERY at first, then about TICK_GAP seconds' worth)"),
     Field("driven", "b", (1,), "the SGC motions are Python callables (else held)"),
     Field("laws", "b", (1,), "the system has load laws (Python callables)"),
     Field("events", "b", (1,), "the laws' switching functions are watched"),
@@ -1478,8 +1481,8 @@ def book_attempt(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
             w.why[0] = st
             return FAILED
     st = book_predict(W)
-    if st == TOO_LARGE and w.atmin[0]:  # at the smallest step the displacement is kept too
-        w.forced[0] += 1
+    big = st == TOO_LARGE and w.atmin[0]
+    if big:  # at the smallest step the displacement is kept too
         st = OK
     if st == OK:  # the middle, for the works
         book_mid(W)
@@ -1500,7 +1503,11 @@ def book_attempt(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
     if st != OK:
         _refused(W, st, BOOK_C)
         return REJECTED
-    return book_finish(S, W)
+    forced = w.forced[0]
+    code = book_finish(S, W)
+    if code == ACCEPTED and big and w.forced[0] == forced:  # one count per forced step
+        w.forced[0] += 1
+    return code
 
 
 # ------------------------------------------------------------------ runs
@@ -1907,15 +1914,17 @@ def run_rk(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray
     (w.why[0] says why); CAPPED after max_steps steps; FULL when the next step's
     outputs would not fit; EVENT when a switching function changed sign over the step
     just accepted; PAUSED when the handler's clock asks for Python (:data:`Hook.TICK`,
-    every TICK_EVERY attempts: progress and Ctrl-C)."""
+    every w.tick[0] attempts: progress and Ctrl-C)."""
     w = step_views(W.P)
     s0 = w.steps[0]
     t_end = O.times[O.times.shape[0] - 1]
     n = 0
     while O.k[0] < O.times.shape[0]:
         n += 1
-        if n % TICK_EVERY == 0 and call_hook(w.hook[0], H_TICK) != 0:
-            return PAUSED
+        if n >= w.tick[0]:
+            n = 0
+            if call_hook(w.hook[0], H_TICK) != 0:
+                return PAUSED
         code = _before(W, O, False)
         if code >= 0:
             return code
@@ -1940,8 +1949,10 @@ def run_book(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarr
     n = 0
     while O.k[0] < O.times.shape[0]:
         n += 1
-        if n % TICK_EVERY == 0 and call_hook(w.hook[0], H_TICK) != 0:
-            return PAUSED
+        if n >= w.tick[0]:
+            n = 0
+            if call_hook(w.hook[0], H_TICK) != 0:
+                return PAUSED
         code = _before(W, O, True)
         if code >= 0:
             return code
