@@ -324,6 +324,105 @@ def test_quarter_car_bump_against_the_linear_model_and_the_sag() -> None:
     np.testing.assert_allclose(ft, kt * (0.3 + w - [road(x) for x in t] - lt), atol=1e-6)
 
 
+TWO_RATE = """TITLE = MASS ON A SPRING AND A TWO-RATE DAMPER
+UNIT (MASS) = 1
+XSLIDE (BASE, MASS) = J
+DATA XSLIDE (J) = 0, 0, 0
+POINT (BASE) = P0
+POINT (MASS) = PM
+DATA POINT (P0, ABS) = -1, 0, 0
+DATA POINT (PM, ABS) = 0, 0, 0
+DATA MASS (MASS, LINK) = 2; 0, 0, 0
+SPRING (P0, PM) = S
+DATA SPRING (S) = 200, 0.9
+DAMPER (P0, PM) = D
+VALUE (CDIR) = VELOCITY(D,1)
+VALUE (CD) = IF(CDIR:3,3,8)
+DATA DAMPER (D) = CD
+REMARK OPENIMP INTEGRATOR = RK, 1E-10
+FIND DYNAMICS
+DATA TIME = 2.0, 0, 0.01
+LIST POSITION (J)
+LIST FORCE (D)
+EXECUTE
+END
+"""
+
+
+def test_a_damper_rate_that_reads_the_dampers_velocity(tmp_path) -> None:
+    """IMP's idiom of a shock absorber stiffer in extension (manual ch 9 example 4):
+    DATA DAMPER (D) = CD, VALUE (CD) = IF(VELOCITY(D,1):3,3,8), the damper's DX rate.
+    A 2 kg mass on a slider, a spring of 200 N/m stretched 0.1 m at the start: against
+    scipy on m x'' = -k (1 + x - 0.9) - c(x') x' with c = 3 for x' <= 0, else 8, the
+    switch located by scipy's event.  Before, VELOCITY of a damper was undefined while
+    integrating (0: c = 3 throughout, silently).  The deck asks for Dormand-Prince by
+    REMARK OPENIMP INTEGRATOR = RK, 1E-10 (ZERO (FORCE) is not used)."""
+    runs, echo = run_deck(write(tmp_path, TWO_RATE, "two_rate.imp"))
+    run = runs[0]
+    assert not run.failure, run.failure
+    assert not any("undefined" in ln for ln in echo), [ln for ln in echo if "undefined" in ln]
+    t = column(run, "LIST POSITION", "joint J", "Time")
+    x = column(run, "LIST POSITION", "joint J", "JVar 1")
+    m, k = 2.0, 200.0
+
+    def reference(c_of) -> np.ndarray:
+        def rhs(_t, y):
+            return [y[1], (-k * (0.1 + y[0]) - c_of(y[1]) * y[1]) / m]
+
+        def turn(_t, y):
+            return y[1]
+
+        out, t0, y0 = [], 0.0, [0.0, 0.0]
+        while t0 < t[-1]:
+            s = solve_ivp(rhs, (t0, t[-1]), y0, method="DOP853", rtol=1e-12, atol=1e-14,
+                          events=turn, dense_output=True)
+            ev = s.t_events[0]
+            t1 = float(ev[ev > t0 + 1e-9][0]) if np.any(ev > t0 + 1e-9) else t[-1]
+            seg = (t >= t0) & (t <= t1)
+            out.append((seg, s.sol(t[seg])[0]))
+            y0 = list(s.sol(t1))
+            t0 = t1
+            if t1 >= t[-1]:
+                break
+        xs = np.zeros_like(t)
+        for seg, vals in out:
+            xs[seg] = vals
+        return xs
+
+    two = reference(lambda v: 3.0 if v <= 0 else 8.0)
+    one = reference(lambda v: 3.0)
+    assert np.max(np.abs(two - one)) > 1e-3  # the second rate matters
+    np.testing.assert_allclose(x, two, rtol=0, atol=1e-7)
+
+
+@pytest.mark.parametrize("directive, error", [
+    ("REMARK OPENIMP INTEGRATOR = RK, 0", "rtol must be a number from 1E-14 to 0.1"),
+    ("REMARK OPENIMP INTEGRATOR = RK, X", "rtol must be a number from 1E-14 to 0.1"),
+    ("REMARK OPENIMP INTEGRATOR = EULER", "give BOOK (IMP's step and ZERO (FORCE)) or RK"),
+])
+def test_integrator_directive_errors_are_located(tmp_path, directive, error) -> None:
+    text = TWO_RATE.replace("REMARK OPENIMP INTEGRATOR = RK, 1E-10", directive)
+    p = write(tmp_path, text, "bad.imp")
+    with pytest.raises(DeckError) as exc:
+        load(p)
+    assert f"bad.imp:{line_of(text, directive)}:" in str(exc.value) and error in str(exc.value)
+
+
+def test_integrator_directive_rk_then_book(tmp_path) -> None:
+    """RK notes that ZERO (FORCE) is not used; BOOK returns to IMP's step (its force error
+    test and step counts differ from Dormand-Prince's)."""
+    text = TWO_RATE.replace("FIND DYNAMICS\n", "FIND DYNAMICS\nZERO (FORCE) = 0.01, 0.1\n")
+    text = text.replace("EXECUTE\nEND\n", "EXECUTE\nREMARK OPENIMP INTEGRATOR = BOOK\n"
+                        "EXECUTE\nEND\n")
+    runs, _echo = run_deck(write(tmp_path, text, "both.imp"))
+    assert len(runs) == 2 and not runs[0].failure and not runs[1].failure
+    assert any("ZERO (FORCE) = 0.01, 0.1 is not used" in m for m in runs[0].messages)
+    assert not any("ZERO (FORCE)" in m for m in runs[1].messages)
+    x0 = column(runs[0], "LIST POSITION", "joint J", "JVar 1")
+    x1 = column(runs[1], "LIST POSITION", "joint J", "JVar 1")
+    assert 1e-9 < np.max(np.abs(x0 - x1)) < 1e-2  # two integrators, one motion
+
+
 @pytest.mark.parametrize("name", ["fourbar_released", "engine_runup", "quarter_car_bump"])
 def test_examples_run_from_the_command_line(tmp_path, name) -> None:
     """``openimp run examples/X.imp`` exits 0; the JSON holds the dynamic run."""

@@ -296,6 +296,23 @@ def test_slider_crank(tmp_path) -> None:
     assert float(rows[9][1]) == pytest.approx(sc_x(math.pi / 2) - SC_C0[0], abs=1e-8)
 
 
+def test_print_position_joint_rows_give_the_second_frames_origin(tmp_path) -> None:
+    """PRINT POSITION of a joint lists, after its variable, the global origin of its
+    second frame (imp-language.md, settled; the sliding piston's frame here), not the
+    first's (fixed on the base at the slider's modeling position)."""
+    text = (DECKS / "run_slidercrank.imp").read_text().replace(
+        "PRINT POSITION (A, PC)", "PRINT POSITION (A, D, PC)")
+    deck = tmp_path / "sc.imp"
+    deck.write_text(text)
+    _deck, runs, _echo = run_deck(deck, out_dir=tmp_path)
+    t = runs[0].table("PRINT POSITION", "joint D")
+    x = np.array([sc_x(th) for th in np.radians(np.arange(0, 361, 10.0))])
+    cols = {c: np.asarray(t.rows, float)[:, k] for k, c in enumerate(t.columns)}
+    np.testing.assert_allclose(cols["X"], x, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(cols["Y"], 0.5, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(cols["JVar 1"], x - SC_C0[0], rtol=0, atol=1e-9)
+
+
 # =============================================================================
 # two-slider 2-DOF planar linkage
 # =============================================================================

@@ -701,6 +701,35 @@ def test_value_of_time_load_is_applied_while_searching(tmp_path) -> None:
     np.testing.assert_allclose(got, expect, atol=1e-6)   # t = 1, 2, 3: the ramp
 
 
+ONE_SIDED = """TITLE = ARM ON A ONE-SIDED TORSION SPRING
+ZPIN (BASE, ARM) = A
+DATA ZPIN (A) = 0,0,0; 1,0,0; 1,0,0
+DATA MASS (ARM, A) = 10; 8, 0, 0
+DATA GRAVITY = 0, -386.088, 0
+VALUE (RATE) = IF(POSITION(A,1):{k},0,0)
+DATA SPRING (A) = RATE, 0
+FIND EQUILIB
+LIST POSITION (A)
+EXECUTE
+END
+"""
+
+
+@pytest.mark.parametrize("k", [1000.0, 300.0])
+def test_element_data_read_the_posture_while_searching(tmp_path, k) -> None:
+    """A torsion spring that acts only below the horizontal (rate IF(POSITION(A,1):k,0,0)
+    per radian, the chapter-9 idiom of tyres and bumpers): the arm (80 in lbf of
+    gravity moment at 0) comes to rest where k theta + 80 cos theta = 0.  Before, the
+    VALUE was undefined while searching (0 used): the arm hung straight down."""
+    runs, echo = run_deck(write(tmp_path, ONE_SIDED.format(k=k)))
+    r = runs[0]
+    assert r.ok and r.mode == "static", r.failure
+    expect = brentq(lambda t: k * t + 80.0 * math.cos(t), -math.pi / 2, 0.0, xtol=1e-15)
+    got = r.table("LIST POSITION", "joint A").rows[0, 1]
+    assert got == pytest.approx(expect / DEG, abs=1e-6)
+    assert not any("undefined" in ln for ln in echo), [ln for ln in echo if "undefined" in ln]
+
+
 def test_turning_point_note_is_in_the_listings_units(toggle) -> None:
     _, echo = toggle
     note = next(ln for ln in echo if "Turning point" in ln and "maximum" in ln)

@@ -58,7 +58,7 @@ from openimp.kinematics.inputs import finite, names_of, positive, start_state
 from openimp.kinematics.track import tracker
 from openimp.limits import MAX_STEPS
 from openimp.results import Equilibrium, EquilibriumPath, SearchStatus, StepKind, Trajectory
-from openimp.system import DAMPER, State, System, make_data, make_dyn_data
+from openimp.system import DAMPER, State, System, make_scratch
 from openimp.workspace import WORKSPACES
 
 #: relative force tolerance (``force_rtol``): |F_i| <= RTOL x the size of the loads
@@ -192,8 +192,7 @@ class _Scratch:
 
     def __init__(self, system: System) -> None:
         nq, nb = system.nq, len(system.bodies)
-        self.data = make_data(system, nq)
-        self.dyn = make_dyn_data(system, nq)
+        self.data, self.dyn = make_scratch(system)
         self.z_cols = self.dyn.view("cols")
         self.z_G = self.dyn.view("Gf")
         self.z_law = self.dyn.view("law")

@@ -27,8 +27,8 @@ class LoadState:
     ``x``, ``xd``: the element's own coordinate and its rate (spring or
     damper: length and its rate; joint element: the joint variable and its
     rate; force or torque: 0); ``var(key)``, ``var_rate(key)``: any joint
-    variable (``"joint"`` or ``"joint.var"``) and its rate; ``point(name)``:
-    a point's global position.
+    variable (``"joint"`` or ``"joint.var"``) and its rate; ``point(name)``,
+    ``point_velocity(name)``: a point's global position and velocity.
     """
 
     __slots__ = ("_tr", "step", "t", "x", "xd")
@@ -63,6 +63,12 @@ class LoadState:
     def point(self, name: str) -> np.ndarray:
         """Global position (3,) of a point at this step."""
         return self._tr.point(name)[self.step].copy()
+
+    def point_velocity(self, name: str) -> np.ndarray:
+        """Global velocity (3,) of a point at this step (0 without rates: at rest)."""
+        if not self._tr.has_rates:
+            return np.zeros(3)
+        return self._tr.point_velocity(name)[self.step].copy()
 
 
 def _scale(system: Any, name: str, col: int) -> float:

@@ -29,6 +29,7 @@ it is a message.
 from __future__ import annotations
 
 import copy
+import math
 import os
 from collections.abc import Iterable
 from dataclasses import dataclass, field
@@ -221,6 +222,9 @@ class State:
     branch: str = "smooth"
     #: at a dead point of an input: stop or switch (REMARK OPENIMP DEAD POINT = ...)
     at_limit: str = "stop"
+    #: the integrator of the time responses: ("book", None), IMP's step, or ("rk",
+    #: rtol), Dormand-Prince 5(4) (REMARK OPENIMP INTEGRATOR = BOOK | RK, rtol)
+    integrator: tuple[str, float | None] = ("book", None)
     #: (category, significant name) -> (the name as first written, where)
     spelled: dict[tuple[str, str], tuple[str, Where]] = field(default_factory=dict)
 
@@ -988,24 +992,51 @@ class Interpreter:
         """``REMARK OPENIMP ...``: an openimp choice IMP itself reads as a remark.
 
         ``REMARK OPENIMP BRANCH = SMOOTH | OTHER`` (at a change point: the branch
-        whose tangent continues the motion, or the other one) and ``REMARK OPENIMP
+        whose tangent continues the motion, or the other one), ``REMARK OPENIMP
         DEAD POINT = STOP | SWITCH`` (at a limit of travel of an input: stop, or
-        drive the joint variable that moves most from there on).  They hold for
-        the EXECUTEs that follow.
+        drive the joint variable that moves most from there on) and ``REMARK
+        OPENIMP INTEGRATOR = BOOK | RK, rtol`` (the time response with IMP's step
+        and ZERO (FORCE), or with Dormand-Prince 5(4) at the relative tolerance
+        rtol, default 1E-8).  They hold for the EXECUTEs that follow.
         """
-        words = text.upper().replace("=", " = ").split()
+        words = text.upper().replace("=", " = ").replace(",", " ").split()
         if not words or words[0].rstrip(":") != "OPENIMP":
             return
         rest = " ".join(w for w in words[1:] if w != "=")
+        if rest.split()[:1] == ["INTEGRATOR"]:
+            self._integrator(rest.split()[1:])
+            return
         known = {"BRANCH SMOOTH": ("branch", "smooth"), "BRANCH OTHER": ("branch", "other"),
                  "DEAD POINT STOP": ("at_limit", "stop"),
                  "DEAD POINT SWITCH": ("at_limit", "switch")}
         if rest not in known:
             raise self.error("unknown openimp directive in a REMARK: give REMARK OPENIMP "
-                             "BRANCH = SMOOTH or OTHER, or REMARK OPENIMP DEAD POINT = STOP or "
-                             f"SWITCH (got '{' '.join(words[1:])[:40]}')")
+                             "BRANCH = SMOOTH or OTHER, REMARK OPENIMP DEAD POINT = STOP or "
+                             "SWITCH, or REMARK OPENIMP INTEGRATOR = BOOK or RK, rtol (got "
+                             f"'{' '.join(words[1:])[:40]}')")
         name, value = known[rest]
         setattr(self.state, name, value)
+
+    def _integrator(self, args: list[str]) -> None:
+        """``REMARK OPENIMP INTEGRATOR = BOOK`` or ``= RK[, rtol]`` (its words after
+        INTEGRATOR, upper case)."""
+        if args == ["BOOK"]:
+            self.state.integrator = ("book", None)
+            return
+        if args[:1] == ["RK"] and len(args) <= 2:
+            rtol = 1e-8
+            if len(args) == 2:
+                try:
+                    rtol = float(args[1].replace("D", "E"))
+                except ValueError:
+                    rtol = math.nan
+                if not (math.isfinite(rtol) and 1e-14 <= rtol <= 0.1):
+                    raise self.error("REMARK OPENIMP INTEGRATOR = RK, rtol: rtol must be a "
+                                     f"number from 1E-14 to 0.1, got '{args[1][:20]}'")
+            self.state.integrator = ("rk", rtol)
+            return
+        raise self.error("REMARK OPENIMP INTEGRATOR: give BOOK (IMP's step and ZERO (FORCE)) "
+                         f"or RK, rtol (Dormand-Prince; got '{' '.join(args)[:40]}')")
 
     def _control(self, stmt: Statement) -> None:
         kw = stmt.keyword

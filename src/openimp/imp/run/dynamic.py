@@ -245,14 +245,21 @@ def options(prep: Prepared, times: np.ndarray, notes: list[str]) -> dict[str, An
     """The tolerances of :func:`openimp.simulate` from the deck's ZERO statements and
     DATA TIME (the step cap: ZERO (FORCE)'s third number)."""
     st = prep.spec.state
-    opts: dict[str, Any] = {
-        "method": METHOD,
-        "force_error": tuple(float(x) for x in st.tolerance("FORCE")),
+    method, rtol = st.integrator
+    opts: dict[str, Any] = {"method": METHOD} if method == "book" else {
+        "method": method, "rtol": rtol}
+    if method == "book":
+        opts["force_error"] = tuple(float(x) for x in st.tolerance("FORCE"))
+    opts.update({
         "mass_tol": float(st.tolerance("INERTIA")[0]),
         "min_step": _min_step(prep, times, notes),
         "tol": float(st.tolerance("POSITION")[0]) if "POSITION" in st.zero else 1e-10,
         "pivot_tol": float(st.tolerance("SYSTEM")[0]) if "SYSTEM" in st.zero else 1e-10,
-    }
+    })
+    if method != "book" and "FORCE" in st.zero:
+        given = ", ".join(f"{x:g}" for x in st.tolerance("FORCE") if x is not None)
+        notes.append(f"ZERO (FORCE) = {given} is not used: REMARK OPENIMP INTEGRATOR = RK "
+                     f"chose Dormand-Prince at the relative tolerance {rtol:g}")
     if st.max_steps is not None:
         opts["max_steps"] = int(st.max_steps)
     if "SPRING" in st.zero:
@@ -309,12 +316,16 @@ def _mobility(res: Any, nsgc: int) -> None:
 
 
 def state_resolver(prep: Prepared) -> Callable[[Any], Callable[[str, str | None, int], float]]:
-    """Load state of an instant of the integration -> the VALUE resolver there: TIME,
-    the position and velocity of a joint variable (radians or lengths, IMP's sign) and
-    the position of a point; what the state does not hold (accelerations, forces, a
-    point's velocity) is undefined."""
+    """Load state of an instant of the integration or of a posture of the equilibrium
+    search -> the VALUE resolver there: TIME, the position and velocity of a joint
+    variable (radians or lengths, IMP's sign), of a point (X, Y, Z) and of a spring or
+    damper (its second point's less its first's: DX, DY, DZ); what the state does not
+    hold (accelerations, forces) is undefined."""
     system = prep.system
     model = prep.built.model
+    extras = prep.spec.state.extras
+    ends = {name: tuple(e["points"][:2]) for kind in ("dampers", "springs")
+            for name, e in extras.get(kind, {}).items()}
 
     def at(s: Any) -> Callable[[str, str | None, int], float]:
         def resolve(kind: str, name: str | None, comp: int) -> float:
@@ -331,8 +342,14 @@ def state_resolver(prep: Prepared) -> Callable[[Any], Callable[[str, str | None,
                 arr = p if kind == "POSITION" else v
                 return (float(arr[0, comp - 1]) if arr is not None and 1 <= comp <= arr.shape[1]
                         else _NAN)
-            if name in model.points and kind == "POSITION" and 1 <= comp <= 3:
-                return float(s.point(name)[comp - 1])
+            if not 1 <= comp <= 3:
+                return _NAN
+            get = s.point if kind == "POSITION" else s.point_velocity
+            if name in ends and all(p in model.points for p in ends[name]):
+                p1, p2 = ends[name]
+                return float(np.ravel(get(p2))[comp - 1] - np.ravel(get(p1))[comp - 1])
+            if name in model.points:
+                return float(np.ravel(get(name))[comp - 1])
             return _NAN
 
         return resolve

@@ -583,7 +583,7 @@ def needs(prep: Prepared, nsteps: int = 1) -> tuple[list[str], list[str]]:
             bodies.add(it.name)
         elif it.kind == "joint":
             bodies.add(model.joints[it.name].body1)
-            if it.request.quantity == "FORCE":
+            if it.request.quantity in ("FORCE", "POSITION"):  # (PRINT: the second origin)
                 bodies.add(model.joints[it.name].body2)
         elif it.kind == "point":
             points.add(it.name)

@@ -43,9 +43,12 @@ def _joint_vars(prep: Prepared, sol: Solution, name: str
 
 
 def _joint_origin(prep: Prepared, sol: Solution, name: str) -> np.ndarray:
-    _, _jd, L1, _ = prep.built.joints[name]
-    T = sol.traj.posture(prep.built.model.joints[name].body1)
-    return np.einsum("sij,j->si", T, L1[:, 3])[:, :3]
+    """The global origin of joint ``name``'s second frame (u'v'w', on its second link)
+    at each step (steps, 3): what IMP's Position Results print after the first joint
+    variable (docs/imp.md; the two origins differ for a joint that translates)."""
+    _, _jd, _, L2 = prep.built.joints[name]
+    T = sol.traj.posture(prep.built.model.joints[name].body2)
+    return np.einsum("sij,j->si", T, L2[:, 3])[:, :3]
 
 
 def joint_frames(prep: Prepared, sol: Solution, name: str) -> np.ndarray:

@@ -32,6 +32,7 @@ import numpy as np
 
 from openimp.dynamics.equilibrium import MAX_ITER, equilibria, turning_points
 from openimp.errors import InputError
+from openimp.imp.run.dynamic import state_resolver
 from openimp.imp.run.kinematic import Motions, reads_model
 from openimp.imp.run.prepare import Prepared
 from openimp.imp.run.solution import Solution
@@ -62,9 +63,10 @@ def solve(prep: Prepared, times: np.ndarray, start: np.ndarray | None,
     if "SYSTEM" in st.zero:
         opts["pivot_tol"] = float(st.tolerance("SYSTEM")[0])
     laws = prep.built.dyn.laws
-    if laws is not None:  # while searching a VALUE knows the time of its step only
+    if laws is not None:  # while searching, a VALUE reads each posture tried (at rest)
         laws.times = np.asarray(times, float)
         laws.resolve_at = None
+        laws.resolve_state = state_resolver(prep)
     path = {system.var_names[d.column]: motions.p[:n, j] for j, d in enumerate(drivers)}
     if n == 0:
         sol = Solution(empty, times[:0], motions.halt.text if motions.halt else "")
@@ -77,6 +79,9 @@ def solve(prep: Prepared, times: np.ndarray, start: np.ndarray | None,
     except InputError as exc:
         return Solution(empty, times[:0],
                         _in_imp_terms(f"the run stopped at step 0: {exc}", prep, drivers))
+    finally:
+        if laws is not None:
+            laws.resolve_state = None
     good = res.trajectory.nsteps if res.trajectory is not None else 0
     sol = Solution(res.trajectory if res.trajectory is not None else empty,
                    np.asarray(times[:good], float),
