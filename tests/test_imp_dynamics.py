@@ -688,3 +688,63 @@ def test_execute_hold_continues_in_time(tmp_path) -> None:
     a1 = column(runs[0], "LIST POSITION", "joint A", "JVar 1")
     a2 = column(runs[1], "LIST POSITION", "joint A", "JVar 1")
     assert a2[0] == pytest.approx(a1[-1], abs=1e-9)
+
+
+# =============================================================================
+# a one-sided IF in element data: the switch located (shared/fuzz-findings/liftoff)
+# =============================================================================
+LIFTOFF = Path(__file__).resolve().parents[2] / "shared" / "fuzz-findings" / "liftoff"
+
+
+def bounce(t: np.ndarray) -> np.ndarray:
+    """A 1 kg mass thrown up at 5 m/s from y = 0 (g = 10) onto a spring of 1000 N/m that
+    acts only below y = 0: flight to t = 1, contact (y = A sin w s + 0.01 cos w s - 0.01)
+    until y returns to 0 at 1 + tc with the speed 5 up, flight again."""
+    w = math.sqrt(1000.0)
+    a = -5.0 / w
+
+    def contact(s):
+        return a * np.sin(w * s) + 0.01 * np.cos(w * s) - 0.01
+
+    from scipy.optimize import brentq
+    tc = brentq(contact, 0.5 * math.pi / w, 1.5 * math.pi / w + 0.2 / w, xtol=1e-15)
+    y = np.where(t <= 1.0, 5 * t - 5 * t**2, 0.0)
+    inside = (t > 1.0) & (t <= 1.0 + tc)
+    y = np.where(inside, contact(t - 1.0), y)
+    after = t > 1.0 + tc
+    s = t - 1.0 - tc
+    return np.where(after, 5 * s - 5 * s**2, y), 1.0 + tc
+
+
+BOOK_SKIPS_LIFTOFF = pytest.mark.xfail(strict=True, reason=(
+    "known gap: with outputs every 0.25 s the book step, exact for the linear contact, "
+    "steps across several oscillations of the contact (its ends both in contact), so the "
+    "lift-off is never seen; a step cap from the contact's frequency is left for issue 28 "
+    "(no contact stepped over)"))
+
+
+@pytest.mark.parametrize("deck, integrator", [
+    ("M07_liftoff_fine.imp", ""),
+    ("M07_liftoff_fine.imp", "REMARK OPENIMP INTEGRATOR = RK, 1E-12\n"),
+    pytest.param("M06_dyn_liftoff.imp", "", marks=BOOK_SKIPS_LIFTOFF),
+    ("M06_dyn_liftoff.imp", "REMARK OPENIMP INTEGRATOR = RK, 1E-12\n"),
+])
+def test_one_sided_value_spring_lands_and_lifts_off_on_time(tmp_path, deck, integrator):
+    """VALUE (K) = IF(Y: 1000, 0, 0), DATA SPRING (J) = K, 0: the IF's test value is a
+    switching function the integrator locates, as a BumpStop's contact.  Before, the
+    run stalled at the lift-off for minutes (outputs every 0.01 s) or finished with wrong
+    positions after the bounce (every 0.25 s).  Against the closed form: positions to
+    1e-8 at every output, and the two switches listed at their instants."""
+    text = (LIFTOFF / deck).read_text().replace("FIND DYNAMICS\n", integrator + "FIND DYNAMICS\n")
+    runs, _echo = run_deck(write(tmp_path, text, deck))
+    run = runs[0]
+    assert not run.failure, run.failure
+    t = column(run, "LIST POSITION", "joint J", "Time")
+    y = column(run, "LIST POSITION", "joint J", "JVar 1")
+    assert t[-1] == pytest.approx(1.5)
+    ref, t_off = bounce(t)
+    np.testing.assert_allclose(y, ref, rtol=0, atol=1e-8)
+    times = [float(m.split()[1].rstrip(":")) for m in run.messages
+             if m.startswith("time ") and "switches" in m]
+    assert any(abs(x - 1.0) < 2e-6 for x in times), run.messages
+    assert any(abs(x - t_off) < 2e-6 for x in times), (t_off, run.messages)

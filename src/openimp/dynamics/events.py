@@ -27,29 +27,35 @@ from openimp.errors import AnalysisError, InputError
 
 
 class Switches:
-    """The switching functions of a system's laws (a law's ``switch`` attribute)."""
+    """The switching functions of a system's laws: a law's ``switch`` attribute, one
+    function, or ``nswitch`` of them when the law says so (``switch`` then returns an
+    array: the IFs of a deck's VALUE data)."""
 
     def __init__(self, system: Any) -> None:
         self.system = system
-        self.funcs = [(slot, name, fn.switch)
+        self.funcs = [(slot, name, fn.switch, int(getattr(fn, "nswitch", 1)))
                       for slot, (_, name, fn, _c) in enumerate(system.laws)
                       if callable(getattr(fn, "switch", None))]
+        #: the law's name of every switching function
+        self.names = [str(name) for _s, name, _f, n in self.funcs for _ in range(n)]
 
     def __bool__(self) -> bool:
-        return bool(self.funcs)
+        return bool(self.names)
 
     def name(self, i: int) -> str:
         """The element of switching function i."""
-        return str(self.funcs[i][1])
+        return self.names[i]
 
     def signs(self, tr: Any, t: float) -> np.ndarray:
         """The switching functions at step 0 of ``tr`` (an
-        :class:`~openimp.dynamics.laws.Instant`) at time t, one per switching law."""
-        out = np.zeros(len(self.funcs))
-        for i, (slot, name, fn) in enumerate(self.funcs):
+        :class:`~openimp.dynamics.laws.Instant`) at time t, ``nswitch`` per law."""
+        out = np.zeros(len(self.names))
+        k = 0
+        for slot, name, fn, n in self.funcs:
             x, xd = law_coordinate(self.system, tr, slot)
             try:
-                out[i] = float(fn(LoadState(tr, 0, t, x, xd)))
+                out[k:k + n] = np.asarray(fn(LoadState(tr, 0, t, x, xd)), float).reshape(-1)[:n]
+                k += n
             except InputError:
                 raise
             except Exception as exc:  # the user's function: any failure is bad input

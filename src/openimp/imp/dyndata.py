@@ -47,7 +47,7 @@ import numpy as np
 
 from openimp import massprops
 from openimp.errors import AnalysisError, InputError
-from openimp.imp.expr import SimulationStop
+from openimp.imp.expr import SimulationStop, if_tests
 from openimp.model import Model
 
 __all__ = ["UNIT_MASS_DEFAULT", "DynamicData", "ValueLaws", "add_dynamic_data",
@@ -141,6 +141,27 @@ class ValueLaws:
                                                                     else ""))
         return 0.0
 
+    def switched(self, law: Callable[[Any], float], data: list[Datum]) -> Callable[[Any], float]:
+        """``law`` with the switching functions of the IFs its VALUE ``data`` reach
+        (:func:`~openimp.imp.expr.if_tests`): the time response locates the instant
+        one of them crosses zero, as a BumpStop's contact (a tyre that lands and lifts
+        off, a damper whose rate changes with its direction).  ``law`` itself when they
+        have no IF."""
+        tests = if_tests([d for d in data if isinstance(d, str)], self.values)
+        if not tests:
+            return law
+        return SwitchedLaw(law, self, tests)
+
+    def _resolver(self, state: Any) -> Any:
+        """The VALUE resolver of a load state (time only, outside a run's resolver)."""
+        if self.resolve_state is not None:
+            return self.resolve_state(state)
+
+        def resolve(kind: str, _name: str | None, _comp: int, t: float = state.t) -> float:
+            return t if kind == "TIME" else math.nan
+
+        return resolve
+
     def term(self, datum: Datum, scale: float, label: str, where: Where
              ) -> Callable[[Any], float]:
         """A function of the load state: the number ``datum * scale`` or the VALUE
@@ -149,6 +170,29 @@ class ValueLaws:
             return lambda s, n=datum: self.value(n, s.step, label, where, s.t, s)
         c = 0.0 if datum is None else float(datum) * scale
         return lambda s: c
+
+
+class SwitchedLaw:
+    """A load law of VALUE data and the switching functions of their IFs' test values
+    (``switch(state)`` -> (nswitch,); an undefined test counts as positive)."""
+
+    def __init__(self, law: Callable[[Any], float], laws: ValueLaws,
+                 tests: list[tuple[Any, Any]]) -> None:
+        self.law = law
+        self.laws = laws
+        self.tests = tests
+        self.nswitch = len(tests)
+
+    def __call__(self, state: Any) -> float:
+        return self.law(state)
+
+    def switch(self, state: Any) -> np.ndarray:
+        resolve = self.laws._resolver(state)
+        out = np.empty(self.nswitch)
+        for i, (expr, node) in enumerate(self.tests):
+            v = expr.evaluate_at(node, self.laws.values, resolve)
+            out[i] = v if math.isfinite(v) else 1.0
+        return out
 
 
 @dataclass
@@ -311,8 +355,8 @@ def _elements(state: Any, model: Model, laws: ValueLaws, dd: DynamicData,
                         used_values = True
                         k = laws.term(rate, 1.0, lab, where)
                         f0 = laws.term(free, 1.0, lab, where)
-                        model.add_spring(key, p1, p2, law=lambda s, k=k, f0=f0:
-                                         k(s) * (s.x - f0(s)))
+                        model.add_spring(key, p1, p2, law=laws.switched(
+                            lambda s, k=k, f0=f0: k(s) * (s.x - f0(s)), [rate, free]))
                     elif rate is None:  # NONE: no stiffness
                         model.add_spring(key, p1, p2, 0.0)
                     else:
@@ -323,7 +367,8 @@ def _elements(state: Any, model: Model, laws: ValueLaws, dd: DynamicData,
                     if _value_names([c], values, what, where):
                         used_values = True
                         cc = laws.term(c, 1.0, lab, where)
-                        model.add_damper(key, p1, p2, law=lambda s, cc=cc: cc(s) * s.xd)
+                        model.add_damper(key, p1, p2, law=laws.switched(
+                            lambda s, cc=cc: cc(s) * s.xd, [c]))
                     else:
                         _negative_damper(c, what, where, messages)
                         model.add_damper(key, p1, p2, 0.0 if c is None else float(c))
@@ -332,7 +377,7 @@ def _elements(state: Any, model: Model, laws: ValueLaws, dd: DynamicData,
                     law = None
                     if _value_names([f], values, what, where):
                         used_values = True
-                        law = laws.term(f, 1.0, lab, where)
+                        law = laws.switched(laws.term(f, 1.0, lab, where), [f])
                     mag = 0.0 if f is None or law is not None else float(f)
                     pa, pb = el["points"][-2:]
                     if kind == "forces":
@@ -402,8 +447,9 @@ def _joint_loads(state: Any, model: Model, joints: dict[str, Any], laws: ValueLa
                         if is_value:
                             kk = laws.term(rate, kdeg, lab, where)
                             f0 = laws.term(free, fdeg, lab, where)
-                            model.set_joint_spring(name, var=col, law=lambda s, kk=kk, f0=f0,
-                                                   sg=sign: kk(s) * (s.x - sg * f0(s)))
+                            model.set_joint_spring(name, var=col, law=laws.switched(
+                                lambda s, kk=kk, f0=f0, sg=sign: kk(s) * (s.x - sg * f0(s)),
+                                [rate, free]))
                         else:
                             model.set_joint_spring(name, float(rate) * kdeg,
                                                    sign * float(free) * fdeg, var=col)
@@ -411,8 +457,8 @@ def _joint_loads(state: Any, model: Model, joints: dict[str, Any], laws: ValueLa
                         c = parts[0]
                         if is_value:
                             cc = laws.term(c, 1.0, lab, where)
-                            model.set_joint_damper(name, var=col,
-                                                   law=lambda s, cc=cc: cc(s) * s.xd)
+                            model.set_joint_damper(name, var=col, law=laws.switched(
+                                lambda s, cc=cc: cc(s) * s.xd, [c]))
                         else:
                             _negative_damper(c, what, where, messages)
                             model.set_joint_damper(name, float(c), var=col)
@@ -420,8 +466,8 @@ def _joint_loads(state: Any, model: Model, joints: dict[str, Any], laws: ValueLa
                         f = parts[0]
                         if is_value:
                             ff = laws.term(f, 1.0, lab, where)
-                            model.set_joint_force(name, var=col,
-                                                  law=lambda s, ff=ff, sg=sign: sg * ff(s))
+                            model.set_joint_force(name, var=col, law=laws.switched(
+                                lambda s, ff=ff, sg=sign: sg * ff(s), [f]))
                         else:
                             model.set_joint_force(name, sign * float(f), var=col)
                 except InputError as exc:

@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -662,6 +662,18 @@ class Expression:
         refs |= {("USER", n.name) for n in self.nodes() if isinstance(n, User)}
         return sorted(refs)
 
+    def evaluate_at(self, node: Node, env: Mapping[str, Any] | None,
+                    resolve: Resolver | None) -> float:
+        """The value of one node of this expression's tree (``nan`` when undefined or
+        when it evaluates RETURN or END): the test value of an IF as a switching
+        function (:func:`if_tests`)."""
+        ev = _Evaluator(env, resolve, False, None, order=0)
+        ev.expr = self
+        try:
+            return float(ev.ev(node)[0])
+        except SimulationStop:
+            return NAN
+
     def uses_time(self) -> bool:
         """True if TIME (or T) appears in the expression itself."""
         return any(isinstance(n, Time) for n in self.nodes())
@@ -684,6 +696,26 @@ class Expression:
             return load_table(self.table_path(self.root.filename), (self.file, self.root.line),
                               self.read_roots)
         return None
+
+
+def if_tests(names: Iterable[str], env: Mapping[str, Any]) -> list[tuple[Expression, Node]]:
+    """The test value of every IF that the VALUEs ``names`` reach, through the VALUEs
+    they use, each once and in a fixed order: (its expression, the test node).  A load
+    given by such VALUEs switches where one of them crosses zero."""
+    out: list[tuple[Expression, Node]] = []
+    seen: set[str] = set()
+    stack = list(reversed(list(names)))
+    while stack:
+        name = stack.pop()
+        if name in seen:
+            continue
+        seen.add(name)
+        item = env.get(name)
+        if not isinstance(item, Expression):
+            continue
+        out.extend((item, n.cond) for n in item.nodes() if isinstance(n, If))
+        stack.extend(reversed(item.value_names()))
+    return out
 
 
 # --------------------------------------------------------------------------- evaluator

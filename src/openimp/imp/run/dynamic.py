@@ -302,7 +302,9 @@ def run_notes(prep: Prepared, res: Any) -> list[str]:
                    f"{old} to {new}")
     for ev in getattr(res, "events", None) or []:
         out.append(f"time {ev.time:.6f}: {ev.name} switches ({ev.direction})")
-    return out
+    # an element whose data reach one IF twice (a spring and a damper rate of one VALUE,
+    # or a VALUE used twice) switches once
+    return list(dict.fromkeys(out))
 
 
 def _mobility(res: Any, nsgc: int) -> None:
