@@ -409,8 +409,8 @@ def test_integrator_directive_errors_are_located(tmp_path, directive, error) -> 
 
 
 def test_integrator_directive_rk_then_book(tmp_path) -> None:
-    """RK notes that ZERO (FORCE) is not used; BOOK returns to IMP's step (its force error
-    test and step counts differ from Dormand-Prince's)."""
+    """RK notes that ZERO (FORCE) is not used; BOOK returns to IMP's step (no such note:
+    its force error test reads ZERO (FORCE))."""
     text = TWO_RATE.replace("FIND DYNAMICS\n", "FIND DYNAMICS\nZERO (FORCE) = 0.01, 0.1\n")
     text = text.replace("EXECUTE\nEND\n", "EXECUTE\nREMARK OPENIMP INTEGRATOR = BOOK\n"
                         "EXECUTE\nEND\n")
@@ -420,7 +420,9 @@ def test_integrator_directive_rk_then_book(tmp_path) -> None:
     assert not any("ZERO (FORCE)" in m for m in runs[1].messages)
     x0 = column(runs[0], "LIST POSITION", "joint J", "JVar 1")
     x1 = column(runs[1], "LIST POSITION", "joint J", "JVar 1")
-    assert 1e-9 < np.max(np.abs(x0 - x1)) < 1e-2  # two integrators, one motion
+    # two integrators, one motion: the book's step is exact for this piecewise-linear
+    # motion once its switches are located (5e-11 measured)
+    assert np.max(np.abs(x0 - x1)) < 1e-8
 
 
 @pytest.mark.parametrize("name", ["fourbar_released", "engine_runup", "quarter_car_bump"])
