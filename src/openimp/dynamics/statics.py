@@ -18,7 +18,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from openimp._jit import njit, packed_views
+from openimp._jit import JIT_ENABLED, njit, packed_views
 from openimp.dynamics.linear import (
     Linearized,
     LinWork,
@@ -158,10 +158,16 @@ SEARCH_STATE = np.dtype([
 ])
 
 
+def _records(a: np.ndarray) -> np.ndarray:
+    """A structured array as the kernels take it: plain when compiled (a kernel call
+    unboxes it in half the time of a record array), a record array when they run as
+    Python (OPENIMP_NOJIT: they read and write fields as attributes, ``st.nf``)."""
+    return a if JIT_ENABLED else a.view(np.recarray)
+
+
 def make_search_state() -> np.ndarray:
-    """A zeroed :data:`SEARCH_STATE` record, as a (1,) structured array: ``rec[0]["nf"]``
-    (a plain array: a kernel call unboxes it in half the time of a record array)."""
-    return np.zeros(1, SEARCH_STATE)
+    """A zeroed :data:`SEARCH_STATE` record, as a (1,) structured array: ``rec[0]["nf"]``."""
+    return _records(np.zeros(1, SEARCH_STATE))
 
 
 #: One step of a search's history (:func:`search_loop`).
@@ -174,7 +180,7 @@ STEP_RECORD = np.dtype([
 
 def make_history(max_steps: int) -> np.ndarray:
     """A zeroed (max_steps,) :data:`STEP_RECORD` structured array."""
-    return np.zeros(max_steps, STEP_RECORD)
+    return _records(np.zeros(max_steps, STEP_RECORD))
 
 
 #: The arrays of a search of a system (internal units), packed (:func:`make_search_buffers`)
