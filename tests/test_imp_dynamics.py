@@ -698,10 +698,11 @@ def test_execute_hold_continues_in_time(tmp_path) -> None:
 LIFTOFF = Path(__file__).resolve().parents[2] / "shared" / "fuzz-findings" / "liftoff"
 
 
-def bounce(t: np.ndarray) -> np.ndarray:
+def bounce(t: np.ndarray) -> tuple[np.ndarray, float]:
     """A 1 kg mass thrown up at 5 m/s from y = 0 (g = 10) onto a spring of 1000 N/m that
     acts only below y = 0: flight to t = 1, contact (y = A sin w s + 0.01 cos w s - 0.01)
-    until y returns to 0 at 1 + tc with the speed 5 up, flight again."""
+    until y returns to 0 at 1 + tc with the speed 5 up, flight again.  Returns (y at t,
+    the lift-off time 1 + tc)."""
     w = math.sqrt(1000.0)
     a = -5.0 / w
 

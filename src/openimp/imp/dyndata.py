@@ -105,15 +105,7 @@ class ValueLaws:
         """The VALUE ``name`` at ``step`` (0 when undefined, with a message).  Without
         :attr:`resolve_at` (a search, not a solved motion) only TIME is known: ``t``;
         with :attr:`resolve_state`, what the load ``state`` knows."""
-        if self.resolve_at is not None:
-            resolve = self.resolve_at(step)
-        elif self.resolve_state is not None and state is not None:
-            resolve = self.resolve_state(state)
-        elif t is not None:
-            def resolve(kind: str, _name: str | None, _comp: int, t: float = t) -> float:
-                return t if kind == "TIME" else math.nan
-        else:
-            resolve = None
+        resolve = self.resolver(step, t, state)
         why: list[str] = []
         try:
             v = float(self.values[name].evaluate(self.values, resolve, notes=why))
@@ -152,12 +144,18 @@ class ValueLaws:
             return law
         return SwitchedLaw(law, self, tests)
 
-    def _resolver(self, state: Any) -> Any:
-        """The VALUE resolver of a load state (time only, outside a run's resolver)."""
-        if self.resolve_state is not None:
+    def resolver(self, step: int, t: float | None, state: Any) -> Any:
+        """The VALUE resolver at ``step``: the solved motion's (:attr:`resolve_at`),
+        else what the load ``state`` knows (:attr:`resolve_state`), else the time ``t``
+        alone; None without any."""
+        if self.resolve_at is not None:
+            return self.resolve_at(step)
+        if self.resolve_state is not None and state is not None:
             return self.resolve_state(state)
+        if t is None:
+            return None
 
-        def resolve(kind: str, _name: str | None, _comp: int, t: float = state.t) -> float:
+        def resolve(kind: str, _name: str | None, _comp: int, t: float = t) -> float:
             return t if kind == "TIME" else math.nan
 
         return resolve
@@ -187,7 +185,7 @@ class SwitchedLaw:
         return self.law(state)
 
     def switch(self, state: Any) -> np.ndarray:
-        resolve = self.laws._resolver(state)
+        resolve = self.laws.resolver(state.step, state.t, state)
         out = np.empty(self.nswitch)
         for i, (expr, node) in enumerate(self.tests):
             v = expr.evaluate_at(node, self.laws.values, resolve)

@@ -245,18 +245,19 @@ def options(prep: Prepared, times: np.ndarray, notes: list[str]) -> dict[str, An
     """The tolerances of :func:`openimp.simulate` from the deck's ZERO statements and
     DATA TIME (the step cap: ZERO (FORCE)'s third number)."""
     st = prep.spec.state
-    method, rtol = st.integrator
-    opts: dict[str, Any] = {"method": METHOD} if method == "book" else {
-        "method": method, "rtol": rtol}
-    if method == "book":
-        opts["force_error"] = tuple(float(x) for x in st.tolerance("FORCE"))
-    opts.update({
+    method, rtol = st.integrator  # (METHOD, None) unless a REMARK OPENIMP INTEGRATOR
+    opts: dict[str, Any] = {
+        "method": method,
         "mass_tol": float(st.tolerance("INERTIA")[0]),
         "min_step": _min_step(prep, times, notes),
         "tol": float(st.tolerance("POSITION")[0]) if "POSITION" in st.zero else 1e-10,
         "pivot_tol": float(st.tolerance("SYSTEM")[0]) if "SYSTEM" in st.zero else 1e-10,
-    })
-    if method != "book" and "FORCE" in st.zero:
+    }
+    if method == METHOD:
+        opts["force_error"] = tuple(float(x) for x in st.tolerance("FORCE"))
+    else:
+        opts["rtol"] = rtol
+    if method != METHOD and "FORCE" in st.zero:
         given = ", ".join(f"{x:g}" for x in st.tolerance("FORCE") if x is not None)
         notes.append(f"ZERO (FORCE) = {given} is not used: REMARK OPENIMP INTEGRATOR = RK "
                      f"chose Dormand-Prince at the relative tolerance {rtol:g}")
