@@ -474,12 +474,12 @@ def test_data_time_missing_names_the_execute_and_exits_2(tmp_path) -> None:
 
 
 def test_ic_and_motion_checked_against_the_model(tmp_path) -> None:
-    # FLAT's polar variables are not the solver's coordinates (a SPHERE's Cardan angles
-    # are converted: test_ball_ic_cardan_angles_and_rates)
+    # more pairs than variables (FLAT's polar variables take ICs: test_imp_ball_loads)
     flat = ("ZPIN (BASE, ARM) = A\nFLAT (ARM, BOB) = F\nFIND DYNAMICS\n"
-            "DATA IC (F) = 10, 0\nDATA TIME = 1, 0, 0.1\nEXECUTE\nEND\n")
+            "DATA IC (A) = 10, 0; 5, 0\nDATA TIME = 1, 0, 0.1\nEXECUTE\nEND\n")
     errs = errors_of(write(tmp_path, flat, "s.imp"))
-    assert any(n == 4 and "cannot take an initial condition" in m for n, m in errs), errs
+    assert any(n == 4 and "has 1 variable(s) but 2 position, velocity pairs" in m
+               for n, m in errs), errs
     text = FOUR + "FIND DYNAMICS\nDATA IC (A) = P0, 0\nDATA TIME = 1, 0, 0.1\nEXECUTE\nEND\n"
     p = write(tmp_path, text)
     r = cli("run", p)

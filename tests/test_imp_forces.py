@@ -562,9 +562,9 @@ def test_bad_data_is_an_input_error_at_its_line(tmp_path, bad, needle) -> None:
         [(e.where, str(e)) for e in ei.value.errors]
 
 
-def test_spring_on_a_sphere_angle_is_left_out_with_a_located_warning(tmp_path) -> None:
-    """IMP puts springs on SPHERE angles; openimp cannot yet: the deck still runs and the
-    entry is left out, with a message at its line (NONE entries say nothing)."""
+def test_spring_on_a_sphere_angle_is_kept(tmp_path) -> None:
+    """IMP puts springs on SPHERE angles, and so does openimp: the joint's Cardan angles
+    become its coordinates, nothing is left out (the values: test_imp_ball_loads)."""
     text = """SPHERE (BASE, ARM) = S
 DATA SPHERE (S) = 0, 0, 0
 DATA SPRING (S) = NONE, NONE; 1, 0
@@ -572,11 +572,11 @@ LIST FORCE (S)
 EXECUTE
 END
 """
-    _d, runs, _e, p = run(tmp_path, text)
-    msgs = [m for m in runs[0].messages if "SPHERE joint S" in m]
-    assert len(msgs) == 1 and msgs[0].startswith(f"{p}:3: warning: DATA SPRING (S): "
-                                                 "variable 2 of SPHERE joint S")
+    d, runs, _e, _p = run(tmp_path, text)
+    assert not [m for m in runs[0].messages if "SPHERE joint S" in m], runs[0].messages
     assert runs[0].ok
+    assert d.built.model.joints["S"].kind_name == "gimbal"
+    assert d.built.model.joint_loads[("S", 1)].rate == pytest.approx(180 / math.pi)
 
 
 def test_warnings_for_implausible_inertia_and_coincident_direction(tmp_path) -> None:

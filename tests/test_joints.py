@@ -140,6 +140,10 @@ CASES: list[tuple[str, str, dict[str, Any], Sampler]] = [
     ("ujoint", "ujoint", {}, lambda r: [_ang(r), _ang(r)]),
     ("sphere_plane", "sphere_plane", {}, lambda r: [_len(r), _len(r), *_unit4(r)]),
     ("sphere_groove", "sphere_groove", {}, lambda r: [_len(r), *_unit4(r)]),
+    ("gimbal", "gimbal", {}, lambda r: [_ang(r), _ang(r), _ang(r)]),
+    ("open_cardan", "open_cardan", {},
+     lambda r: [_len(r), _len(r), _len(r), _ang(r), _ang(r), _ang(r)]),
+    ("flat_polar", "flat_polar", {}, lambda r: [_ang(r), _len(r, .3), _ang(r)]),
 ]
 IDS = [c[0] for c in CASES]
 SEEDS = (1, 2, 3)
@@ -167,7 +171,7 @@ def test_catalogue_complete() -> None:
     """Every integer code has exactly one kind, and every kind is in CASES."""
     kinds = {jt.name: jt for jt in J.CATALOGUE.values()}
     codes = sorted(jt.code for jt in kinds.values())
-    assert codes == list(range(18))
+    assert codes == list(range(21))
     assert {c[1] for c in CASES} == set(kinds)
     for jt in kinds.values():
         assert jt.nvar <= J.MAXV

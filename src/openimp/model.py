@@ -92,6 +92,9 @@ class JointLoad:
     var: int
     rate: float = 0.0
     free: float | None = None
+    #: the free angle means itself modulo a turn: the compiled model takes the one
+    #: nearest the joint's angle at the modeling posture (IMP's Cardan and polar angles)
+    periodic: bool = False
     damping: float = 0.0
     force: float = 0.0
     spring_law: Law | None = None
@@ -572,13 +575,18 @@ class Model:
         return self.joint_loads.setdefault((joint, k), JointLoad(joint, k))
 
     def set_joint_spring(self, joint: str, rate: float = 0.0, free: float | None = None, *,
-                         var: int | str | None = None, law: Law | None = None) -> None:
+                         var: int | str | None = None, law: Law | None = None,
+                         periodic: bool = False) -> None:
         """A spring on a joint variable (book 9.6): force ``rate * (q - free)`` against
-        q (rate per radian or per length; ``free`` default: the modeling posture)."""
+        q (rate per radian or per length; ``free`` default: the modeling posture).
+        ``periodic``: an angle's ``free`` counts modulo a turn, the one nearest the
+        joint's angle at the modeling posture is used (a ball's Cardan angle drawn at
+        180 deg with a free angle of -180 deg carries no torque)."""
         jl = self._joint_load(joint, var, "spring")
         where = f"spring of joint {joint!r}"
         jl.rate = self._number(where, "the rate", rate)
         jl.free = None if free is None else self._number(where, "the free position", free)
+        jl.periodic = bool(periodic)
         jl.spring_law = self._law(where, law)
 
     def set_joint_damper(self, joint: str, coefficient: float = 0.0, *,

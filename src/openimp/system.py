@@ -800,6 +800,8 @@ def _dynamic_group(
         qc[c] = jl.damping * e2 / s_len**2
         qf[c] = jl.force * e2 / s_len
         qfree[c] = q0[c] if jl.free is None else jl.free * s_len
+        if jl.periodic and rot and jl.free is not None:  # the turn nearest the drawing
+            qfree[c] += 2.0 * math.pi * round((q0[c] - qfree[c]) / (2.0 * math.pi))
         for slot, (what, law) in enumerate((("joint spring", jl.spring_law),
                                             ("joint damper", jl.damper_law),
                                             ("joint force", jl.force_law))):

@@ -398,6 +398,12 @@ def _elements(state: Any, model: Model, laws: ValueLaws, dd: DynamicData,
     return used_values
 
 
+#: kinds whose angles are measured from a rotation, so a free angle means itself modulo
+#: a turn (IMP's Cardan and polar angles: -180 and 180 deg are one posture; the
+#: compiled model takes the turn nearest the drawing, JointLoad.periodic)
+_TURNED = ("gimbal", "open_cardan", "flat_polar")
+
+
 def _joint_loads(state: Any, model: Model, joints: dict[str, Any], laws: ValueLaws,
                  messages: list[str]) -> bool:
     used_values = False
@@ -450,7 +456,8 @@ def _joint_loads(state: Any, model: Model, joints: dict[str, Any], laws: ValueLa
                                 [rate, free]))
                         else:
                             model.set_joint_spring(name, float(rate) * kdeg,
-                                                   sign * float(free) * fdeg, var=col)
+                                                   sign * float(free) * fdeg, var=col,
+                                                   periodic=ij.kind in _TURNED)
                     elif store == "damper_data":
                         c = parts[0]
                         if is_value:

@@ -42,7 +42,13 @@ from openimp.errors import InputError
 from openimp.files import check_readable, quote_path
 from openimp.imp.dyndata import UNIT_MASS_DEFAULT, DynamicData, add_dynamic_data
 from openimp.imp.expr import Expression
-from openimp.imp.jointmap import IMP_JOINTS, bevel_frames, placement_frames
+from openimp.imp.jointmap import (
+    IMP_DIRECT,
+    IMP_JOINTS,
+    bevel_frames,
+    drivable,
+    placement_frames,
+)
 from openimp.imp.parser import JOINT_DOF, Statement
 from openimp.massprops import mass_value
 from openimp.model import Model
@@ -908,10 +914,9 @@ class Interpreter:
                      "given; those variables are not input motions (NONE).")
             motions += [None] * (ij.nvar - len(motions))
         for k, m in enumerate(motions):
-            if m is not None and ij.drive[k] is None:
+            if m is not None and not drivable(jd.keyword, k):
                 raise self.error(f"variable {k + 1} of {jd.keyword} joint {jd.name} cannot be an "
-                                 "input motion in openimp yet (its variable is not one of the "
-                                 "solver's coordinates); give NONE for it")
+                                 "input motion; give NONE for it")
         if all(m is None for m in motions):
             raise self.error("every motion is NONE: the statement drives nothing")
         old = self.state.inputs.get(jd.name)
@@ -933,11 +938,9 @@ class Interpreter:
             raise self.error(f"joint {jd.name} ({jd.keyword}) has {ij.nvar} variable(s) but "
                              f"{len(pairs)} position, velocity pairs are given")
         for k, (pos, vel) in enumerate(pairs):
-            if (pos is not None or vel is not None) and ij.drive[k] is None \
-                    and not ij.is_cardan(k):
+            if (pos is not None or vel is not None) and not drivable(jd.keyword, k):
                 raise self.error(f"variable {k + 1} of {jd.keyword} joint {jd.name} cannot take "
-                                 "an initial condition in openimp yet (it is not one of the "
-                                 "solver's coordinates); give NONE, NONE for it")
+                                 "an initial condition; give NONE, NONE for it")
             if isinstance(vel, float) and not abs(vel) <= limits.MAX_RATE:
                 raise self.error(f"the initial velocity {limits.number_text(vel)} of joint "
                                  f"{jd.name} {k + 1} is beyond "
@@ -1387,7 +1390,7 @@ def build_model(state: State, where: Where) -> Built:
             model.set_body_frame(name, state.links[name].frame)
     joints: dict[str, tuple[Any, JointDef, np.ndarray, np.ndarray]] = {}
     for name, jd in state.joints.items():
-        ij = IMP_JOINTS[jd.keyword]
+        ij = imp_joint(state, jd)
         loc = jd.placed or jd.where
         if not ij.available:
             raise InputError(f"{jd.keyword} joint {name}: the openimp joint kind '{ij.kind}' is "
@@ -1428,6 +1431,40 @@ def build_model(state: State, where: Where) -> Built:
     extras["graphics"] = copy.deepcopy(state.graphics)
     model.extras = extras
     return Built(model, joints, messages, dyn)
+
+
+def _acts_beyond(state: State, jd: JointDef, ij: Any) -> bool:
+    """True when the deck puts a spring, damper, load, motion or initial condition on
+    a variable of joint ``jd`` that the default kind ``ij`` has not as a coordinate."""
+    name, ex = jd.name, state.extras
+    elements = ("springs", "dampers", "forces", "torques")
+    if not any(name in ex.get(k, {}) for k in elements):
+        for store, key in (("spring_data", "pairs"), ("damper_data", "coefficients"),
+                           ("load_data", "loads")):
+            entries = ex.get(store, {}).get(name, {}).get(key) or ()
+            for k, entry in enumerate(entries):
+                parts = list(entry) if isinstance(entry, tuple | list) else [entry]
+                if k < ij.nvar and ij.drive[k] is None and any(p is not None for p in parts):
+                    return True
+    inp = state.inputs.get(name)
+    if inp is not None and inp.kind == "MOTION" and any(
+            m is not None and ij.drive[k] is None for k, m in enumerate(inp.motions)):
+        return True
+    ic = ex.get("ics", {}).get(name)
+    return ic is not None and any(
+        (p is not None or v is not None) and ij.drive[k] is None and not ij.is_cardan(k)
+        for k, (p, v) in enumerate(ic["pairs"]))
+
+
+def imp_joint(state: State, jd: JointDef) -> Any:
+    """The :class:`~openimp.imp.jointmap.ImpJoint` a deck's joint becomes: the keyword's
+    default, or its :data:`~openimp.imp.jointmap.IMP_DIRECT` kind (IMP's own variables as
+    coordinates) when the deck acts on a variable the default has not (a SPHERE's
+    Cardan angle with a spring, a FLAT's radius with a motion)."""
+    ij = IMP_JOINTS[jd.keyword]
+    if jd.keyword in IMP_DIRECT and _acts_beyond(state, jd, ij):
+        return IMP_DIRECT[jd.keyword]
+    return ij
 
 
 def compile_built(built: Built, state: State, where: Where) -> Any:

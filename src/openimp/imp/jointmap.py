@@ -29,10 +29,12 @@ from openimp.errors import InputError
 from openimp.joints import CATALOGUE
 
 __all__ = [
+    "IMP_DIRECT",
     "IMP_JOINTS",
     "ImpJoint",
     "cardan_angular_velocity",
     "cardan_to_er",
+    "drivable",
     "frame_w",
     "imp_variables",
     "placement_frames",
@@ -132,6 +134,27 @@ IMP_JOINTS: dict[str, ImpJoint] = {
     "OPEN": ImpJoint("OPEN", "open", (_L, _L, _L, _A, _A, _A), _ID,
                      ((0, 1.0), (1, 1.0), (2, 1.0), None, None, None), False, cardan=3),
 }
+
+#: IMP's SPHERE, OPEN and FLAT with IMP's own variables as the solver's coordinates
+#: (:mod:`openimp.joints.cardan`): the kind a deck's joint becomes when the deck puts a
+#: spring, damper, load, motion or initial condition on a variable the default kind
+#: does not have (its Cardan angles, FLAT's polar form).  The defaults stay otherwise:
+#: their Euler-Rodrigues parameters never lock, their (x, y) have no pole at r = 0.
+IMP_DIRECT: dict[str, ImpJoint] = {
+    "SPHERE": ImpJoint("SPHERE", "gimbal", (_A, _A, _A), _ID,
+                       ((0, 1.0), (1, 1.0), (2, 1.0))),
+    "OPEN": ImpJoint("OPEN", "open_cardan", (_L, _L, _L, _A, _A, _A), _ID,
+                     tuple((k, 1.0) for k in range(6)), False),
+    "FLAT": ImpJoint("FLAT", "flat_polar", (_A, _L, _A), _ID, ((0, 1.0), (1, 1.0), (2, 1.0)),
+                     False),
+}
+
+
+def drivable(keyword: str, k: int) -> bool:
+    """True when IMP variable ``k`` (0-based) of a ``keyword`` joint can carry a load, a
+    motion or an initial condition (in the default kind or in :data:`IMP_DIRECT`'s)."""
+    ij = IMP_DIRECT.get(keyword, IMP_JOINTS[keyword])
+    return k < ij.nvar and ij.drive[k] is not None
 
 
 # =============================================================================
@@ -335,7 +358,7 @@ def imp_variables(
         v = None if rate is None or qd is None else np.concatenate([qd[:, :3], rate], axis=1)
         a = None if acc is None or qdd is None else np.concatenate([qdd[:, :3], acc], axis=1)
         return p, v, a
-    if kw == "FLAT":
+    if ij.kind == "flat":  # IMP's polar form of the (x, y, theta) of the default kind
         x, y, th = q[:, 0], q[:, 1], q[:, 2]
         r = np.hypot(x, y)
         p1 = np.unwrap(np.arctan2(y, x)) if n > 1 else np.arctan2(y, x)

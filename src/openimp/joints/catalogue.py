@@ -87,6 +87,11 @@ radians, lengths in model units).  The first body is the one named first.
     ``origin`` = ball centre, ``axis`` = plane normal from the plane toward the ball.
 ``sphere_groove``, ``s`` (length), ``e1..e4``.  Ball in a straight groove of the
     first body; ``origin`` = ball centre, ``ref`` = u along the groove.
+``gimbal`` (``a``, ``b``, ``c``), ``open_cardan`` (``x``, ``y``, ``z``, ``a``, ``b``,
+    ``c``), ``flat_polar`` (``phi1``, ``r``, ``phi2``): IMP's SPHERE, OPEN and FLAT
+    with IMP's variables as coordinates (Cardan angles x-y'-z'', the polar form),
+    so springs, dampers, loads, motions and initial conditions act on them as IMP's
+    do (:mod:`openimp.joints.cardan`); singular where IMP's are (b = +-90 deg, r = 0).
 """
 
 from __future__ import annotations
@@ -100,17 +105,21 @@ import numpy as np
 
 from openimp.errors import InputError
 from openimp.joints.calc import joint_calc
+from openimp.joints.cardan import extract_flat_polar, extract_gimbal, extract_open_cardan
 from openimp.joints.codes import (
     BEVEL,
     CAM,
     CLOSED_FORM,
     CYLINDER,
     FLAT,
+    FLAT_POLAR,
     GEAR,
     GEAR_LOAD_SIGN_SLOT,
+    GIMBAL,
     LINE_CURVE,
     MAXV,
     OPEN,
+    OPEN_CARDAN,
     POINT_CURVE,
     PRISMATIC,
     RACK,
@@ -387,7 +396,29 @@ register(JointType(
     er_groups=(1,), make_consts=_no_consts, extract=extract_sphere_groove,
     order_note="the first body carries the groove", aliases=("ball_groove",),
 ))
-
+register(JointType(
+    "gimbal", GIMBAL, ("a", "b", "c"), ("angle", "angle", "angle"),
+    "ball joint turned by Cardan angles x-y'-z'' (IMP's SPHERE variables): common origin; "
+    "Phi = Rx(a) Ry(b) Rz(c), a about u, b about the turned v, c about w'. Singular at "
+    "b = +-90 deg, where a and c turn about one axis (use sphere, which never locks, "
+    "when the angles need not be coordinates)",
+    make_consts=_no_consts, extract=extract_gimbal, aliases=("cardan_sphere",),
+))
+register(JointType(
+    "open_cardan", OPEN_CARDAN, ("x", "y", "z", "a", "b", "c"),
+    ("length", "length", "length", "angle", "angle", "angle"),
+    "no constraint, IMP's OPEN variables: origin of u'v'w' at (x, y, z) in uvw, then the "
+    "Cardan turns of gimbal; Phi = T(x, y, z) Rx(a) Ry(b) Rz(c)",
+    make_consts=_no_consts, extract=extract_open_cardan,
+))
+register(JointType(
+    "flat_polar", FLAT_POLAR, ("phi1", "r", "phi2"), ("angle", "length", "angle"),
+    "flat joint in IMP's polar variables: uv and u'v' planes coincide, w and w' on the same "
+    "side; phi1 = angle from u to the line t from the uvw origin to the u'v'w' origin, "
+    "r = the distance along t, phi2 = angle from t to u' about w; Phi = Rz(phi1) Tx(r) "
+    "Rz(phi2). Singular at r = 0",
+    make_consts=_no_consts, extract=extract_flat_polar,
+))
 
 #: default direction of w (and of u) for the axis-named aliases
 ALIAS_AXES: dict[str, tuple[tuple[float, float, float], tuple[float, float, float]]] = {

@@ -26,6 +26,9 @@ SLOT = 14
 UJOINT = 15
 SPHERE_PLANE = 16
 SPHERE_GROOVE = 17
+GIMBAL = 18
+OPEN_CARDAN = 19
+FLAT_POLAR = 20
 
 #: the kinds the kernels evaluate in closed form (see :func:`closed_form`)
 CLOSED_FORM = (RIGID, REVOLUTE, PRISMATIC, CYLINDER)
@@ -50,13 +53,14 @@ def nvar(code: int) -> int:
         return 1
     if code == CYLINDER or code == BEVEL or code == CAM or code == SLOT or code == UJOINT:
         return 2
-    if code == FLAT or code == GEAR or code == RACK or code == POINT_CURVE or code == LINE_CURVE:
+    if (code == FLAT or code == GEAR or code == RACK or code == POINT_CURVE
+            or code == LINE_CURVE or code == GIMBAL or code == FLAT_POLAR):
         return 3
     if code == SPHERE:
         return 4
     if code == SPHERE_GROOVE:
         return 5
-    if code == SPHERE_PLANE:
+    if code == SPHERE_PLANE or code == OPEN_CARDAN:
         return 6
     if code == OPEN:
         return 7
@@ -85,5 +89,5 @@ def is_planar(code: int) -> bool:
     """True for the planar higher pairs, Phi = [[Rz(theta(q)), p(q)], [0, 1]]."""
     return (
         code == GEAR or code == RACK or code == POINT_CURVE or code == LINE_CURVE
-        or code == CAM or code == SLOT
+        or code == CAM or code == SLOT or code == FLAT_POLAR
     )

@@ -22,11 +22,15 @@ import numpy as np
 
 from openimp._jit import njit
 from openimp.errors import InputError
+from openimp.joints.cardan import cardan_calc
 from openimp.joints.codes import (
     BEVEL,
     CAM,
+    FLAT_POLAR,
     GEAR,
+    GIMBAL,
     LINE_CURVE,
+    OPEN_CARDAN,
     POINT_CURVE,
     RACK,
     SLOT,
@@ -211,6 +215,25 @@ def planar_terms(
         PG[0, 0] = 1.0
         PG[0, 1] = fv[1]
         PGI[0, 0, 1] = fv[2] / ls
+    elif code == FLAT_POLAR:  # Rz(phi1) Tx(r) Rz(phi2): IMP's FLAT
+        c1 = math.cos(q[0])
+        s1 = math.sin(q[0])
+        r = q[1]
+        T[0] = q[0] + q[2]
+        TG[0] = 1.0
+        TG[2] = 1.0
+        P[0] = r * c1
+        P[1] = r * s1
+        PG[0, 0] = -r * s1
+        PG[0, 1] = r * c1
+        PG[1, 0] = c1
+        PG[1, 1] = s1
+        PGI[0, 0, 0] = -r * c1
+        PGI[0, 0, 1] = -r * s1
+        PGI[0, 1, 0] = -s1
+        PGI[0, 1, 1] = c1
+        PGI[1, 0, 0] = -s1
+        PGI[1, 0, 1] = c1
     return nv
 
 
@@ -403,6 +426,8 @@ def higher_calc(code: int, q: np.ndarray, c: np.ndarray, s: float, Phi: np.ndarr
                             t += MGI[g, i2, i, m] * M[j, m] + MG[g, i, m] * MG[i2, j, m]
                         V[i, j] = t
                 _set_ops_block(V, off[0], dQ[g, i2])
+    elif code == GIMBAL or code == OPEN_CARDAN:
+        cardan_calc(code, q, Phi, Q, dQ, order)
     else:  # SPHERE_PLANE, SPHERE_GROOVE: Phi = [[Theta(e), (x, y, 0) or (s, 0, 0)], [0, 1]]
         k = _er_trans(code)
         eye4(Phi)

@@ -10,7 +10,7 @@ import numpy as np
 
 from openimp._jit import njit
 from openimp.errors import InputError
-from openimp.joints.codes import SPHERE, SPHERE_GROOVE, SPHERE_PLANE
+from openimp.joints.codes import GIMBAL, SPHERE, SPHERE_GROOVE, SPHERE_PLANE
 from openimp.kinematics.elimination import derivatives, eliminate, jacobian, replay
 from openimp.kinematics.position import position
 from openimp.kinematics.rates import body_operators
@@ -241,7 +241,7 @@ def passive_freedoms(system: System, data: Data, state: State, rank: int,
         incident = [h for h in range(len(system.joints)) if K.jb1[h] == b or K.jb2[h] == b]
         if (
             len(incident) == 2
-            and all(K.jcode[h] in (SPHERE, SPHERE_PLANE, SPHERE_GROOVE) for h in incident)
+            and all(K.jcode[h] in (SPHERE, SPHERE_PLANE, SPHERE_GROOVE, GIMBAL) for h in incident)
             and not np.any(K.ptbody == b)
         ):
             out.add(c)
