@@ -423,7 +423,12 @@ class Interpreter:
             self._control(stmt)
 
     # ------------------------------------------------------------------ lookups
-    def _link(self, name: str, what: str = "link") -> LinkDef:
+    def _link(self, name: str, what: str = "link", create: bool = False) -> LinkDef:
+        """The link ``name``; ``create``: a link not yet named in a joint comes into being
+        here, as IMP-2000's SHAPE, POINT and DATA LINK made it (the solid-model decks of
+        chapter 9 shape and frame each link before its joints)."""
+        if create and name not in self.state.links and self._stmt is not None:
+            self.state.links[name] = LinkDef(name, self._stmt.where)
         if name not in self.state.links:
             known = ", ".join(self.state.links) or "none yet"
             raise self.error(f"{what} {name} is not defined (links: {known}); links come into "
@@ -508,7 +513,7 @@ class Interpreter:
 
     def _def_shape(self, stmt: Statement) -> None:
         link = stmt.fields["link"]
-        self._link(link)
+        self._link(link, create=True)
         solids = self.state.extras.get("solids", {})
         for s in stmt.fields["solids"]:
             if s not in solids:
@@ -536,7 +541,7 @@ class Interpreter:
 
     def _def_point(self, stmt: Statement) -> None:
         link = stmt.fields["link"]
-        self._link(link)
+        self._link(link, create=True)
         names = stmt.fields["points"]
         self._spelling("point", self._written(1), self.state.points)
         for n in names:
@@ -609,7 +614,7 @@ class Interpreter:
 
     def _data_link(self, stmt: Statement) -> None:
         f = stmt.fields
-        link = self._link(f["link"])
+        link = self._link(f["link"], create=f["frame"] == "LINK")
         pts = [None if filled else self._resolve_point(p, f"point P{k + 1}")
                for k, (p, filled) in enumerate(zip(f["points"], f["filled"]))]
         if pts[0] is None:
