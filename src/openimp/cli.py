@@ -59,6 +59,12 @@ class _ArgumentParser(argparse.ArgumentParser):
         self.exit(EXIT_INPUT, f"openimp: error: {message}\n")
 
 
+_STRICT = ("refuse the deck for a statement IMP answered with a message and passed over "
+           "(FIND in the wrong mode, a missing SOLID READ file, a request naming a deleted "
+           "item ...) and for an EXECUTE that cannot run; by default they are warnings and "
+           "the rest runs")
+
+
 def _parser() -> argparse.ArgumentParser:
     from openimp import __version__
 
@@ -82,10 +88,12 @@ def _parser() -> argparse.ArgumentParser:
                         "default: only the deck's folder)")
     r.add_argument("--quiet", action="store_true",
                    help="print nothing on stdout (errors and failures still go to stderr)")
+    r.add_argument("--strict", action="store_true", help=_STRICT)
     c = sub.add_parser("check", help="read and validate a deck without running it")
     c.add_argument("deck", help="the IMP deck file")
     c.add_argument("--allow-read", metavar="DIR", action="append",
                    help="let RECALL INPUT, TABLE and SOLID READ read from DIR too")
+    c.add_argument("--strict", action="store_true", help=_STRICT)
     return p
 
 
@@ -139,13 +147,13 @@ def _print_errors(exc: Exception, deck: str) -> None:
              f"(limit MAX_ERRORS_SHOWN); correct the ones above first")
 
 
-def _load(path: str, allow_read: Sequence[str] = ()) -> object | None:
+def _load(path: str, allow_read: Sequence[str] = (), strict: bool = False) -> object | None:
     """The parsed deck, or None after its input errors are printed on stderr."""
     from openimp.errors import InputError
     from openimp.imp.deck import load
 
     try:
-        deck = load(path, allow_read=allow_read)
+        deck = load(path, allow_read=allow_read, strict=strict)
     except InputError as exc:
         for w in getattr(exc, "warnings", []):  # they may explain the errors
             _err(str(w))
@@ -157,22 +165,29 @@ def _load(path: str, allow_read: Sequence[str] = ()) -> object | None:
 
 
 def _cmd_check(args: argparse.Namespace) -> int:
+    from openimp.errors import InputError
     from openimp.imp.interp import DEFAULT_TITLE
     from openimp.imp.run import not_produced, trailing_requests, validate
 
-    deck: Any = _load(args.deck, args.allow_read or ())
+    deck: Any = _load(args.deck, args.allow_read or (), args.strict)
     if deck is None:
         return EXIT_INPUT
     specs = deck.specs
     lines: list[str] = []
     missing: list[str] = []  # worded as `openimp run` words them on stderr
     for spec in specs:
-        prep = validate(spec)
+        title = spec.state.title or DEFAULT_TITLE
+        try:
+            prep = validate(spec)
+        except InputError as exc:  # load() let the deck's other EXECUTEs run
+            missing.append(f"run {spec.index} ({title}): {exc}")
+            lines.append(f"  run {spec.index} ({spec.mode}) at {spec.where[0]}:"
+                         f"{spec.where[1]}: will not run")
+            continue
         m = prep.built.model
         s = prep.system
         failure, unsupported = not_produced(spec)
         gaps = ([failure] if failure else []) + unsupported
-        title = spec.state.title or DEFAULT_TITLE
         missing += [f"run {spec.index} ({title}): {text}" for text in gaps]
         lines.append(f"  run {spec.index} ({spec.mode}) at {spec.where[0]}:{spec.where[1]}: "
                      f"{len(m.bodies)} links, {len(m.joints)} joints, {len(m.points)} points, "
@@ -272,7 +287,7 @@ def _run_deck(args: argparse.Namespace, talk: Any) -> int:
     from openimp.errors import OutputError
     from openimp.files import inputs_of_run, printable
 
-    deck = _load(args.deck, args.allow_read or ())
+    deck = _load(args.deck, args.allow_read or (), args.strict)
     if deck is None:
         return EXIT_INPUT
     out = sys.stdout

@@ -40,6 +40,12 @@ class InputError(OpenIMPError, ValueError):
         return msg
 
 
+
+class PassedOverError(InputError):
+    """An input IMP answered with a message and passed over: the statement is ignored
+    with a located warning and the deck goes on, unless it is read strictly
+    (``openimp check --strict``, ``load(strict=True)``), where it is an input error."""
+
 class UnknownNameError(InputError, KeyError):
     """A name a result does not hold (:class:`Named`): an :class:`InputError` that is
     also the ``KeyError`` a mapping raises."""

@@ -13,7 +13,7 @@ import os
 from collections.abc import Callable, Iterable
 from typing import Any
 
-from openimp.errors import InputError
+from openimp.errors import InputError, PassedOverError
 from openimp.files import inputs_of_run, real_roots
 from openimp.imp.interp import (
     DEFAULT_TITLE,
@@ -163,7 +163,7 @@ def _empty_deck(p: str, statements: list[Statement]) -> InputError | None:
 
 
 def load(path: str | os.PathLike[str], check: bool = True,
-         allow_read: Iterable[str | os.PathLike[str]] = ()) -> Deck:
+         allow_read: Iterable[str | os.PathLike[str]] = (), strict: bool = False) -> Deck:
     """Read an IMP deck and carry out its statements (no analysis is run yet).
 
     Returns a :class:`Deck`; call ``deck.run()`` for the results.  Raises
@@ -171,7 +171,11 @@ def load(path: str | os.PathLike[str], check: bool = True,
     with ``check`` (default) the model of every EXECUTE is also built, compiled
     and validated (mobility against the inputs).  RECALL INPUT, TABLE and
     SOLID READ read only inside the deck's folder and the folders of
-    ``allow_read``.
+    ``allow_read``.  A statement IMP answered with a message and passed over
+    (:class:`~openimp.errors.PassedOverError`: FIND in the wrong mode, a missing SOLID READ
+    file, a request naming a deleted item ...) is a located warning, and an
+    EXECUTE whose model cannot be built fails alone when another can run;
+    ``strict`` makes both input errors of the deck.
     """
     p = os.fspath(path)
     problem = _deck_problem(p)
@@ -182,13 +186,13 @@ def load(path: str | os.PathLike[str], check: bool = True,
     errors: list[InputError] = []
     inputs: set[str] = set()
     with inputs_of_run(inputs):
-        deck = _read(p, roots, allow, errors, check)
+        deck = _read(p, roots, allow, errors, check, strict)
     deck.inputs |= inputs
     return deck
 
 
 def _read(p: str, roots: tuple[str, ...], allow: list[str], errors: list[InputError],
-          check: bool) -> Deck:
+          check: bool, strict: bool) -> Deck:
     """:func:`load` after its checks of the path: parse, carry out, check."""
     try:
         statements = parse_file(p, on_error=errors.append, allow_read=allow)
@@ -197,7 +201,10 @@ def _read(p: str, roots: tuple[str, ...], allow: list[str], errors: list[InputEr
     empty = _empty_deck(p, statements)
     if empty is not None and not errors:
         raise DeckError([empty])
-    interp = Interpreter(os.path.dirname(p) or None, roots)
+    interp = Interpreter(os.path.dirname(p) or None, roots, strict=strict)
+    for e in [e for e in errors if isinstance(e, PassedOverError)] if not strict else []:
+        errors.remove(e)  # a statement the parser dropped, IMP passed over
+        interp.pass_over(e)
     interp.feed(statements)
     errors.extend(interp.errors)
     errors.sort(key=lambda e: (e.where or ("", 0))[1] if (e.where or ("",))[0] == p else 10**9)
@@ -209,6 +216,9 @@ def _read(p: str, roots: tuple[str, ...], allow: list[str], errors: list[InputEr
         for e in deck.check():  # the same problem seen by several EXECUTEs is told once
             if str(e) not in {str(x) for x in errs}:
                 errs.append(e)
-        if errs:
+        if errs and (strict or len(errs) >= len(deck.specs)):
             raise DeckError(errs, interp.warnings)
+        for e in errs:  # the other EXECUTEs run; this one fails with its message
+            deck.warnings.append(DeckWarning(f"{e.args[0]}; this EXECUTE will not run (the "
+                                             "others do)", e.where))
     return deck

@@ -38,8 +38,8 @@ from typing import Any
 import numpy as np
 
 from openimp import limits
-from openimp.errors import InputError
-from openimp.files import check_readable, quote_path
+from openimp.errors import InputError, PassedOverError
+from openimp.files import check_readable, printable, quote_path
 from openimp.imp.dyndata import UNIT_MASS_DEFAULT, DynamicData, add_dynamic_data
 from openimp.imp.expr import Expression
 from openimp.imp.jointmap import (
@@ -224,6 +224,8 @@ class State:
     #: the cap on the steps of a time response (ZERO (FORCE)'s third number; None: the
     #: default of :func:`openimp.simulate`)
     max_steps: int | None = None
+    #: statements IMP passed over (:class:`~openimp.errors.PassedOverError`) are input errors
+    strict: bool = False
     #: at a change point: the smooth branch or the other (REMARK OPENIMP BRANCH = ...)
     branch: str = "smooth"
     #: at a dead point of an input: stop or switch (REMARK OPENIMP DEAD POINT = ...)
@@ -291,8 +293,8 @@ class Interpreter:
     """
 
     def __init__(self, base_dir: str | None = None,
-                 read_roots: tuple[str, ...] | None = None) -> None:
-        self.state = State()
+                 read_roots: tuple[str, ...] | None = None, strict: bool = False) -> None:
+        self.state = State(strict=strict)
         self.base_dir = base_dir
         self.read_roots = read_roots
         self.events: list[tuple[str, Any]] = []
@@ -377,6 +379,21 @@ class Interpreter:
         prefix = f"{stmt.keyword} statement: " if stmt is not None and where is None else ""
         return InputError(prefix + message, loc)
 
+    def passed(self, message: str) -> PassedOverError:
+        """A :class:`~openimp.errors.PassedOverError` about the current statement: IMP answered it
+        with a message and went on."""
+        e = self.error(message)
+        return PassedOverError(str(e.args[0]), e.where)
+
+    def pass_over(self, exc: PassedOverError) -> None:
+        """A statement IMP passed over: ignored with a located warning, or an input error
+        when the deck is read strictly."""
+        if self.state.strict:
+            self.errors.append(exc)
+        else:
+            self.warn(f"{exc.args[0]}; the statement is ignored, as IMP ignored it "
+                      "(openimp check --strict refuses it)", exc.where)
+
     # ------------------------------------------------------------------ driver
     def feed(self, statements: Iterable[Statement]) -> None:
         """Carry out statements in order; errors are gathered in :attr:`errors`."""
@@ -395,6 +412,8 @@ class Interpreter:
                 self.msg(w)
             try:
                 self.execute(stmt)
+            except PassedOverError as exc:
+                self.pass_over(exc)
             except InputError as exc:
                 if exc.where is None:
                     exc.where = stmt.where
@@ -505,6 +524,10 @@ class Interpreter:
         name = stmt.fields["filename"]
         path = name if os.path.isabs(name) or not self.base_dir else os.path.join(
             self.base_dir, name)
+        if not os.path.lexists(path):  # IMP said so and went on; the solid is not defined
+            raise self.passed(f"the file '{printable(name, 80)}' does not exist (it is "
+                              "relative to the deck's folder); solid "
+                              f"{stmt.fields['solid']} is not defined")
         check_readable(path, f"{stmt.keyword} statement", stmt.where, self.read_roots)
         self._spelling("solid", self._written(0, 1), self.state.extras.get("solids", {}))
         self.state.extras.setdefault("solids", {})[stmt.fields["solid"]] = {
@@ -517,7 +540,7 @@ class Interpreter:
         solids = self.state.extras.get("solids", {})
         for s in stmt.fields["solids"]:
             if s not in solids:
-                raise self.error(f"solid {s} is not defined; read it with SOLID READ first")
+                raise self.passed(f"solid {s} is not defined; read it with SOLID READ first")
         self.state.extras.setdefault("shapes", {})[link] = list(stmt.fields["solids"])
 
     def _def_contact(self, stmt: Statement) -> None:
@@ -525,7 +548,7 @@ class Interpreter:
         solids = self.state.extras.get("solids", {})
         for s in (f["solid1"], f["solid2"]):
             if s not in solids:
-                raise self.error(f"solid {s} is not defined; read it with SOLID READ first")
+                raise self.passed(f"solid {s} is not defined; read it with SOLID READ first")
         if f["solid1"] == f["solid2"]:
             raise self.error("a contact needs two different solids")
         contacts = self.state.extras.setdefault("contacts", {})
@@ -775,7 +798,7 @@ class Interpreter:
         f = stmt.fields
         shaped = {s for v in self.state.extras.get("shapes", {}).values() for s in v}
         if f["solid"] not in shaped:
-            raise self.error(f"solid {f['solid']} is in no SHAPE statement yet")
+            raise self.passed(f"solid {f['solid']} is in no SHAPE statement yet")
         if f["density"] < 0:
             raise self.error("the density must not be negative")
         self.state.extras.setdefault("densities", []).append(
@@ -934,8 +957,8 @@ class Interpreter:
 
     def _data_ic(self, stmt: Statement) -> None:
         if self.state.find != "DYNAMICS":
-            raise self.error("DATA IC needs FIND DYNAMICS first (initial conditions are for "
-                             "dynamic mode)")
+            raise self.passed("DATA IC needs FIND DYNAMICS first (initial conditions are for "
+                              "dynamic mode)")
         jd = self._jdef(stmt.fields["joint"])
         ij = IMP_JOINTS[jd.keyword]
         pairs = stmt.fields["pairs"]
@@ -1061,17 +1084,19 @@ class Interpreter:
             self._execute(stmt)
         elif kw == "FIND EQUILIB":
             if st.find == "DYNAMICS":
-                raise self.error("FIND EQUILIB after FIND DYNAMICS; cancel with DELETE DYNAMICS")
+                raise self.passed("FIND EQUILIB after FIND DYNAMICS; cancel with DELETE "
+                                  "DYNAMICS")
             if st.kinematic or st.extras.get("rates_given"):
-                raise self.error("FIND EQUILIB in kinematic mode (after DATA VELOCITY, DATA "
-                                 "ACCEL or a kinematic EXECUTE); cancel with DELETE INPUT (ALL)")
+                raise self.passed("FIND EQUILIB in kinematic mode (after DATA VELOCITY, DATA "
+                                  "ACCEL or a kinematic EXECUTE); cancel with DELETE INPUT (ALL)")
             st.find, st.find_where = "EQUILIB", stmt.where
         elif kw == "FIND DYNAMICS":
             if st.find == "EQUILIB":
-                raise self.error("FIND DYNAMICS after FIND EQUILIB; cancel with DELETE EQUILIB")
+                raise self.passed("FIND DYNAMICS after FIND EQUILIB; cancel with DELETE "
+                                  "EQUILIB")
             if st.kinematic or any(i.kind == "POSITION" for i in st.inputs.values()):
-                raise self.error("FIND DYNAMICS after DATA POSITION or a kinematic EXECUTE; "
-                                 "cancel with DELETE INPUT (ALL)")
+                raise self.passed("FIND DYNAMICS after DATA POSITION or a kinematic EXECUTE; "
+                                  "cancel with DELETE INPUT (ALL)")
             st.find, st.find_where = "DYNAMICS", stmt.where
         elif kw == "UNIT MASS":
             if f["value"] <= 0:

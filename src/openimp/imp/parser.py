@@ -24,7 +24,7 @@ from collections.abc import Callable, Generator, Iterable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
-from openimp.errors import InputError
+from openimp.errors import InputError, PassedOverError
 from openimp.files import quote, quote_path, read_text, real_roots
 from openimp.imp.expr import (
     FUNCTIONS,
@@ -602,10 +602,11 @@ def _h_data(ctx: _Ctx, cur: _Cursor) -> None:
     if what is None:
         if item is not None and item.kind == "WORD":
             key = item.key
-            if key == "SHAP":
-                raise cur.error("DATA SHAPE is mentioned by the manual but never documented; "
-                                "attach solids with SHAPE (link) = solid, ... and place them "
-                                "with DATA LINK (link, LINK)", item)
+            if key == "SHAP":  # IMP passed over it: PassedOverError, a warning unless strict
+                e = cur.error("DATA SHAPE is mentioned by the manual but never documented; "
+                              "attach solids with SHAPE (link) = solid, ... and place them "
+                              "with DATA LINK (link, LINK)", item)
+                raise PassedOverError(str(e.args[0]), e.where)
             if key == "ZERO":
                 raise cur.error("there is no DATA ZERO statement; tolerances are set with "
                                 "ZERO (POSITION) = value, nsteps and the other ZERO forms", item)

@@ -189,12 +189,16 @@ def _request_items(state: State, built: Built
                 if req.family == "PLOT":
                     raise InputError(f"{req.keyword} statement: links cannot be plotted "
                                      f"({n}); plot its points or joints", req.where)
-            elif n in state.points:
-                raise InputError(f"{req.keyword} statement: point {n} is on a link that is in "
-                                 "no joint, so it was deleted at EXECUTE", req.where)
             else:
-                raise InputError(f"{req.keyword} statement: {n} is not a joint, point, link, "
-                                 "spring or damper defined by EXECUTE", req.where)
+                why = (f"point {n} is on a link that is in no joint, so it was deleted at "
+                       "EXECUTE" if n in state.points else
+                       f"{n} is not a joint, point, link, spring or damper defined by EXECUTE")
+                if state.strict:
+                    raise InputError(f"{req.keyword} statement: {why}", req.where)
+                # IMP said so and listed the rest (an item deleted earlier, a typo)
+                skipped.append(f"{req.where[0]}:{req.where[1]}: {req.keyword} ({n}) is not "
+                               f"produced: {why} (openimp check --strict refuses it)")
+                continue
             if kind in ("spring", "damper"):
                 pts = (springs if kind == "spring" else dampers)[n]["points"]
                 for p in pts:

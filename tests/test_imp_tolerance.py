@@ -1,0 +1,93 @@
+"""IMP's tolerance of odd lines (issue 25 item 3): a statement IMP answered with a
+message and passed over is a located warning and the deck goes on; an EXECUTE
+that cannot be built fails alone while the others run; ``--strict`` (and
+``load(strict=True)``) keeps the refusal.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from helpers.decks import cpu_limit, line_of, run_deck, write
+from openimp.imp.deck import load
+from openimp.imp.interp import DeckError
+
+FOUR = """ZPIN (BASE, CRNK) = A
+DATA ZPIN (A) = 0,0,0; 1,0,0; 1,0,0
+ZPIN (CRNK, CPLR) = B
+DATA ZPIN (B) = 1,0,0; 2,0,0; 2,0,0
+ZPIN (CPLR, ROCK) = C
+DATA ZPIN (C) = 3,2,0; 4,2,0; 4,2,0
+ZPIN (ROCK, BASE) = D
+DATA ZPIN (D) = 4,0,0; 5,0,0; 5,0,0
+POINT (CPLR) = P
+DATA POINT (P, ABS) = 2, 1, 0
+"""
+RUN = "DATA POSITION (A) = 0, 10, 3\nLIST POSITION (A)\nEXECUTE\nEND\n"
+
+#: (the odd lines, which of them is warned about (0-based), words of its message): each
+#: case of the issue's audit list
+CASES = [
+    ("DELETE POINT (P)\nLIST POSITION (P)\n", 1,
+     "P is not a joint, point, link, spring or damper defined by EXECUTE"),
+    ("FIND EQUILIBRIUM\nFIND DYNAMICS\nDELETE EQUILIBRIUM\n", 1,
+     "FIND DYNAMICS after FIND EQUILIB"),
+    ("DATA IC (A) = 10, 0\n", 0, "DATA IC needs FIND DYNAMICS first"),
+    ("SOLID READ S1 = nofile.geo\nSHAPE (CRNK) = S1\n", 0,
+     "the file 'nofile.geo' does not exist"),
+    ("DATA SHAPE (CRNK) = S\n", 0, "DATA SHAPE is mentioned by the manual"),
+]
+IDS = ["deleted-item", "find-wrong-mode", "ic-before-find", "solid-file-missing", "data-shape"]
+#: the line number of the first odd line
+FIRST = FOUR.count("\n") + 1
+
+
+@pytest.mark.parametrize(("odd", "k", "words"), CASES, ids=IDS)
+def test_odd_line_is_a_located_message_and_the_deck_runs(tmp_path, odd, k, words) -> None:
+    p = write(tmp_path, FOUR + odd + RUN)
+    runs, echo = run_deck(p)
+    where = f"{p}:{FIRST + k}:"
+    said = [ln for ln in echo if where in ln and words in ln]
+    assert said, (where, echo)
+    assert len(runs) == 1 and not runs[0].failure, runs[0].failure
+    np.testing.assert_allclose(runs[0].table("LIST POSITION", "joint A").rows[:, 1],
+                               [0, 10, 20, 30], atol=1e-12)
+
+
+@pytest.mark.parametrize(("odd", "k", "words"), CASES, ids=IDS)
+def test_strict_refuses_the_odd_line(tmp_path, odd, k, words) -> None:
+    p = write(tmp_path, FOUR + odd + RUN)
+    with pytest.raises(DeckError) as info:
+        load(p, strict=True)
+    assert any(e.where == (str(p), FIRST + k) and words in str(e)
+               for e in info.value.errors), [(e.where, str(e)) for e in info.value.errors]
+
+
+def test_an_execute_that_cannot_run_fails_alone(tmp_path) -> None:
+    """Over-specified inputs stop that EXECUTE (its message, exit status 1); the next
+    EXECUTE runs; ``check --strict`` refuses the deck (exit 2)."""
+    text = FOUR + ("DATA POSITION (A) = 0, 10, 3\nDATA POSITION (D) = 0, 0, 3\n"
+                   "LIST POSITION (A)\nEXECUTE\nDELETE INPUT (D)\nEXECUTE\nEND\n")
+    p = write(tmp_path, text)
+    runs, _echo = run_deck(p)
+    n = line_of(text, "DATA POSITION (D)")  # the statement to change
+    assert len(runs) == 2 and not runs[0].ok and runs[1].ok
+    assert runs[0].failure.startswith(f"{p}:{n}: EXECUTE: over-specified motion")
+    cmd = [sys.executable, "-m", "openimp.cli"]
+    r = subprocess.run([*cmd, "check", str(p)], capture_output=True, text=True,
+                       preexec_fn=cpu_limit)
+    assert r.returncode == 1 and f"{p}:{n}: warning: EXECUTE: over-specified" in r.stderr
+    assert "will not run" in r.stdout
+    r = subprocess.run([*cmd, "check", "--strict", str(p)], capture_output=True, text=True,
+                       preexec_fn=cpu_limit)
+    assert r.returncode == 2 and f"{p}:{n}: EXECUTE: over-specified" in r.stderr
+
+
+def test_every_execute_failing_still_refuses_the_deck(tmp_path) -> None:
+    text = FOUR + "DATA POSITION (A) = 0, 10, 3\nDATA POSITION (D) = 0, 0, 3\nEXECUTE\nEND\n"
+    with pytest.raises(DeckError, match="over-specified"):
+        load(write(tmp_path, text))
