@@ -91,3 +91,27 @@ def test_every_execute_failing_still_refuses_the_deck(tmp_path) -> None:
     text = FOUR + "DATA POSITION (A) = 0, 10, 3\nDATA POSITION (D) = 0, 0, 3\nEXECUTE\nEND\n"
     with pytest.raises(DeckError, match="over-specified"):
         load(write(tmp_path, text))
+
+
+# =============================================================================
+# IMP's printout of a run without DATA TIME (issue 25 item 8)
+# =============================================================================
+@pytest.mark.parametrize("how", ["remark", "cli"])
+def test_imp_listing_labels_the_step_as_time(tmp_path, how) -> None:
+    """IMP printed ``time = %.6f`` per output and a ``Time`` column holding the step
+    number, with no units in the titles; openimp's default says Step
+    (test_first_use)."""
+    head = "REMARK OPENIMP LISTING = IMP\n" if how == "remark" else ""
+    p = write(tmp_path, head + FOUR + "DATA POSITION (A) = 0, 10, 2\nPRINT POSITION (A)\n"
+              "LIST POSITION (A)\nEXECUTE\nEND\n")
+    r = subprocess.run([sys.executable, "-m", "openimp.cli", "run", str(p),
+                        *(["--imp-listing"] if how == "cli" else [])],
+                       capture_output=True, text=True, preexec_fn=cpu_limit)
+    assert r.returncode == 0, r.stderr
+    lines = [ln.strip() for ln in r.stdout.splitlines()]
+    assert [ln for ln in lines if ln.startswith(("time =", "step ="))] == [
+        "time = 0.000000", "time = 1.000000", "time = 2.000000"]
+    i = lines.index("Listing of position of joint A")
+    assert lines[i + 1].split() == ["Time", "JVar", "1"]
+    assert [ln.split() for ln in lines[i + 2:i + 5]] == [
+        ["0.000000", "0.000"], ["1.000000", "10.000"], ["2.000000", "20.000"]]

@@ -89,6 +89,9 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--quiet", action="store_true",
                    help="print nothing on stdout (errors and failures still go to stderr)")
     r.add_argument("--strict", action="store_true", help=_STRICT)
+    r.add_argument("--imp-listing", action="store_true",
+                   help="IMP's printout: a run without DATA TIME lists a Time column and "
+                        "prints 'time =' lines, as IMP did (default: Step, 'step =')")
     c = sub.add_parser("check", help="read and validate a deck without running it")
     c.add_argument("deck", help="the IMP deck file")
     c.add_argument("--allow-read", metavar="DIR", action="append",
@@ -147,13 +150,14 @@ def _print_errors(exc: Exception, deck: str) -> None:
              f"(limit MAX_ERRORS_SHOWN); correct the ones above first")
 
 
-def _load(path: str, allow_read: Sequence[str] = (), strict: bool = False) -> object | None:
+def _load(path: str, allow_read: Sequence[str] = (), strict: bool = False,
+          imp_listing: bool = False) -> object | None:
     """The parsed deck, or None after its input errors are printed on stderr."""
     from openimp.errors import InputError
     from openimp.imp.deck import load
 
     try:
-        deck = load(path, allow_read=allow_read, strict=strict)
+        deck = load(path, allow_read=allow_read, strict=strict, imp_listing=imp_listing)
     except InputError as exc:
         for w in getattr(exc, "warnings", []):  # they may explain the errors
             _err(str(w))
@@ -287,7 +291,7 @@ def _run_deck(args: argparse.Namespace, talk: Any) -> int:
     from openimp.errors import OutputError
     from openimp.files import inputs_of_run, printable
 
-    deck = _load(args.deck, args.allow_read or (), args.strict)
+    deck = _load(args.deck, args.allow_read or (), args.strict, args.imp_listing)
     if deck is None:
         return EXIT_INPUT
     out = sys.stdout

@@ -163,7 +163,8 @@ def _empty_deck(p: str, statements: list[Statement]) -> InputError | None:
 
 
 def load(path: str | os.PathLike[str], check: bool = True,
-         allow_read: Iterable[str | os.PathLike[str]] = (), strict: bool = False) -> Deck:
+         allow_read: Iterable[str | os.PathLike[str]] = (), strict: bool = False,
+         imp_listing: bool = False) -> Deck:
     """Read an IMP deck and carry out its statements (no analysis is run yet).
 
     Returns a :class:`Deck`; call ``deck.run()`` for the results.  Raises
@@ -175,7 +176,8 @@ def load(path: str | os.PathLike[str], check: bool = True,
     (:class:`~openimp.errors.PassedOverError`: FIND in the wrong mode, a missing SOLID READ
     file, a request naming a deleted item ...) is a located warning, and an
     EXECUTE whose model cannot be built fails alone when another can run;
-    ``strict`` makes both input errors of the deck.
+    ``strict`` makes both input errors of the deck.  ``imp_listing`` starts the deck
+    with IMP's printout (``REMARK OPENIMP LISTING = IMP``).
     """
     p = os.fspath(path)
     problem = _deck_problem(p)
@@ -186,13 +188,13 @@ def load(path: str | os.PathLike[str], check: bool = True,
     errors: list[InputError] = []
     inputs: set[str] = set()
     with inputs_of_run(inputs):
-        deck = _read(p, roots, allow, errors, check, strict)
+        deck = _read(p, roots, allow, errors, check, (strict, imp_listing))
     deck.inputs |= inputs
     return deck
 
 
 def _read(p: str, roots: tuple[str, ...], allow: list[str], errors: list[InputError],
-          check: bool, strict: bool) -> Deck:
+          check: bool, flags: tuple[bool, bool]) -> Deck:
     """:func:`load` after its checks of the path: parse, carry out, check."""
     try:
         statements = parse_file(p, on_error=errors.append, allow_read=allow)
@@ -201,7 +203,9 @@ def _read(p: str, roots: tuple[str, ...], allow: list[str], errors: list[InputEr
     empty = _empty_deck(p, statements)
     if empty is not None and not errors:
         raise DeckError([empty])
-    interp = Interpreter(os.path.dirname(p) or None, roots, strict=strict)
+    strict, imp_listing = flags
+    interp = Interpreter(os.path.dirname(p) or None, roots, strict=strict,
+                         imp_listing=imp_listing)
     for e in [e for e in errors if isinstance(e, PassedOverError)] if not strict else []:
         errors.remove(e)  # a statement the parser dropped, IMP passed over
         interp.pass_over(e)

@@ -226,6 +226,9 @@ class State:
     max_steps: int | None = None
     #: statements IMP passed over (:class:`~openimp.errors.PassedOverError`) are input errors
     strict: bool = False
+    #: IMP's printout in a run without DATA TIME: a Time column and ``time =`` lines
+    #: (REMARK OPENIMP LISTING = IMP; openimp run --imp-listing), not openimp's Step
+    imp_listing: bool = False
     #: at a change point: the smooth branch or the other (REMARK OPENIMP BRANCH = ...)
     branch: str = "smooth"
     #: at a dead point of an input: stop or switch (REMARK OPENIMP DEAD POINT = ...)
@@ -293,8 +296,9 @@ class Interpreter:
     """
 
     def __init__(self, base_dir: str | None = None,
-                 read_roots: tuple[str, ...] | None = None, strict: bool = False) -> None:
-        self.state = State(strict=strict)
+                 read_roots: tuple[str, ...] | None = None, strict: bool = False,
+                 imp_listing: bool = False) -> None:
+        self.state = State(strict=strict, imp_listing=imp_listing)
         self.base_dir = base_dir
         self.read_roots = read_roots
         self.events: list[tuple[str, Any]] = []
@@ -1028,7 +1032,10 @@ class Interpreter:
         drive the joint variable that moves most from there on) and ``REMARK
         OPENIMP INTEGRATOR = BOOK | RK, rtol`` (the time response with IMP's step
         and ZERO (FORCE), or with Dormand-Prince 5(4) at the relative tolerance
-        rtol, default 1E-8).  They hold for the EXECUTEs that follow.
+        rtol, default 1E-8) and ``REMARK OPENIMP LISTING = IMP | OPENIMP`` (a run
+        without DATA TIME lists a Time column and prints ``time =`` lines as IMP
+        did, or a Step column and ``step =`` lines).  They hold for the EXECUTEs
+        that follow.
         """
         words = text.upper().replace("=", " = ").replace(",", " ").split()
         if not words or words[0].rstrip(":") != "OPENIMP":
@@ -1039,11 +1046,13 @@ class Interpreter:
             return
         known = {"BRANCH SMOOTH": ("branch", "smooth"), "BRANCH OTHER": ("branch", "other"),
                  "DEAD POINT STOP": ("at_limit", "stop"),
-                 "DEAD POINT SWITCH": ("at_limit", "switch")}
+                 "DEAD POINT SWITCH": ("at_limit", "switch"),
+                 "LISTING IMP": ("imp_listing", True), "LISTING OPENIMP": ("imp_listing", False)}
         if rest not in known:
             raise self.error("unknown openimp directive in a REMARK: give REMARK OPENIMP "
                              "BRANCH = SMOOTH or OTHER, REMARK OPENIMP DEAD POINT = STOP or "
-                             "SWITCH, or REMARK OPENIMP INTEGRATOR = BOOK or RK, rtol (got "
+                             "SWITCH, REMARK OPENIMP INTEGRATOR = BOOK or RK, rtol, or REMARK "
+                             "OPENIMP LISTING = IMP or OPENIMP (got "
                              f"'{' '.join(words[1:])[:40]}')")
         name, value = known[rest]
         setattr(self.state, name, value)

@@ -29,11 +29,13 @@ QUANTITY_WORDS = {"POSITION": "position", "VELOCITY": "velocity", "ACCEL": "acce
                   "VALUE": "value", "HEADING": "generalized coordinates"}
 
 
-def format_listing(t: Table) -> str:
+def format_listing(t: Table, units: bool = True) -> str:
     """IMP-style listing of a table: header, column titles, one row per step.
 
     Time prints as %.6f (a step number as an integer) and values as %.3f (IMP's
     LIST format, reference 2.3); values IMP cannot determine print as ????.
+    ``units``: the column titles carry their units (``Time (s)``); without them
+    they are IMP's (``Time  JVar 1``).
     A frequency response (LIST DYNAMICS) prints every number with 6
     significant digits: its magnitudes span decades.
     """
@@ -43,7 +45,7 @@ def format_listing(t: Table) -> str:
         head = f"Listing of force in {t.item}"
     elif quantity == "DYNAMICS":
         head = f"Listing of the frequency response to {t.item}"
-    titles = [f"{c}" + (f" ({u})" if u else "") for c, u in zip(t.columns, t.units)]
+    titles = [f"{c}" + (f" ({u})" if u and units else "") for c, u in zip(t.columns, t.units)]
     widths = [max(12, len(s) + 2) for s in titles]
     lines = [head, "".join(s.rjust(w) for s, w in zip(titles, widths))]
     for r in t.rows:

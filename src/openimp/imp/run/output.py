@@ -269,7 +269,7 @@ def _results(spec: RunSpec, ctx: Context, prep: Prepared, sol: Solution, notes: 
     for t in run.tables:
         if t.request.startswith("LIST"):
             ctx.say("")
-            for line in format_listing(t).split("\n"):
+            for line in format_listing(t, units=not spec.state.imp_listing).split("\n"):
                 ctx.say(line)
     if run.failure:
         ctx.say("")

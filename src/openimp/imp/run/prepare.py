@@ -533,8 +533,9 @@ def _check_size(prep: Prepared) -> None:
 def stepped(state: State) -> bool:
     """True when no DATA TIME gives real times: IMP's assumed time is the step
     number (counted on after EXECUTE HOLD, back to 0 at RESET), so tables are
-    labelled ``Step``; the rates stay per second."""
-    return state.time is None
+    labelled ``Step``; the rates stay per second.  False with IMP's listing
+    (``REMARK OPENIMP LISTING = IMP``): IMP labelled the step number Time."""
+    return state.time is None and not state.imp_listing
 
 
 def plot_driver(prep: Prepared) -> Driver | None:
