@@ -115,3 +115,55 @@ def test_imp_listing_labels_the_step_as_time(tmp_path, how) -> None:
     assert lines[i + 1].split() == ["Time", "JVar", "1"]
     assert [ln.split() for ln in lines[i + 2:i + 5]] == [
         ["0.000000", "0.000"], ["1.000000", "10.000"], ["2.000000", "20.000"]]
+
+
+# =============================================================================
+# positions that cannot be reached are skipped (issue 25 item 5)
+# =============================================================================
+#: the four-bar FOUR: crank A-B (1), coupler B-C (sqrt 8), rocker D-C (sqrt 5), ground 4
+A0, B0, C0, D0 = (np.array(v, float) for v in ((0, 0), (1, 0), (3, 2), (4, 0)))
+
+
+def _turn(v: np.ndarray, a: float) -> np.ndarray:
+    c, s = np.cos(a), np.sin(a)
+    return np.array([c * v[0] - s * v[1], s * v[0] + c * v[1]])
+
+
+def crank_angles(rocker: float) -> list[float]:
+    """The crank angles (deg, from the drawing) that close the loop at a rocker turn
+    (rad, from the drawing): B on the unit circle about A at sqrt(8) from C."""
+    C = D0 + _turn(C0 - D0, rocker)
+    d = np.linalg.norm(C - A0)
+    a = (1 + d * d - 8.0) / (2 * d)  # along AC from A to the chord of intersection
+    h = np.sqrt(max(1 - a * a, 0.0))
+    u = (C - A0) / d
+    n = np.array([-u[1], u[0]])
+    return [float(np.degrees(np.arctan2(*(a * u + s * h * n)[::-1]))) for s in (1, -1)]
+
+
+def test_a_sweep_through_a_limit_of_travel_skips_and_goes_on(tmp_path) -> None:
+    """The rocker driven by 0.5 sin(t) rad swings beyond its limit of travel (where crank
+    and coupler line up, |AC| = 1 + sqrt 8) and back: the positions beyond are
+    skipped, each with a located message, the run records their times and lists
+    every other position, each a closure of the loop."""
+    text = FOUR + ("VALUE (V) = 0.5*SIN(T)\nDATA MOTION (D) = V\nDATA TIME = 6, 0, 0.25\n"
+                   "LIST POSITION (A, D)\nEXECUTE\nEND\n")
+    p = write(tmp_path, text)
+    runs, echo = run_deck(p)
+    r = runs[0]
+    t = np.arange(25) * 0.25
+    rocker = 0.5 * np.sin(t)  # D's variable: BASE turned from ROCK, so the rocker turns -D
+    C = np.array([D0 + _turn(C0 - D0, -x) for x in rocker])
+    beyond = np.linalg.norm(C - A0, axis=1) > 1 + np.sqrt(8.0)
+    assert 0 < beyond.sum() < len(t)
+    np.testing.assert_allclose(r.missing, t[beyond], atol=1e-12)
+    assert not r.failure, r.failure
+    rows = r.table("LIST POSITION", "joint A").rows
+    np.testing.assert_allclose(rows[:, 0], t[~beyond], atol=1e-12)
+    np.testing.assert_allclose(r.table("LIST POSITION", "joint D").rows[:, 1],
+                               np.degrees(rocker[~beyond]), atol=1e-9)
+    for x, a in zip(rocker[~beyond], rows[:, 1], strict=True):
+        assert min(abs((a - c + 180) % 360 - 180) for c in crank_angles(-x)) < 1e-8
+    where = f"{p}:{line_of(text, 'EXECUTE')}: EXECUTE: step "
+    skipped = [ln for ln in echo if where in ln and "cannot be reached" in ln]
+    assert len(skipped) == beyond.sum(), echo

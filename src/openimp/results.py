@@ -839,6 +839,9 @@ class Run:
     unsupported: list[str] = field(default_factory=list)
     #: set when the user interrupted the run (Ctrl-C); what was solved is kept
     interrupted: bool = False
+    #: the output times of positions that could not be reached and were skipped (a
+    #: kinematic sweep through a limit of travel): no row of any table has them
+    missing: list[float] = field(default_factory=list)
 
     @property
     def ok(self) -> bool:
@@ -865,6 +868,8 @@ class Run:
             d["unsupported"] = list(self.unsupported)
         if self.interrupted:
             d["interrupted"] = True
+        if self.missing:
+            d["missing"] = list(self.missing)
         return d
 
 

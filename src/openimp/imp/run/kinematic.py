@@ -12,15 +12,20 @@ For every EXECUTE in kinematic mode (no FIND statement):
    (:func:`openimp.kinematics.sweep`, free coordinates held as IMP's
    kinematic mode does), gathered in one trajectory.
 
-A posture that cannot be reached stops the run; everything computed before
-is kept, and the message names the step, the time and the last good posture.
+A posture that cannot be reached is skipped, as IMP skipped it (a sweep
+through a limit of travel): a message names the step, the time, the inputs
+asked for and why, the run goes on from the next step with the last good
+posture as its guess, and the solution records the output times missing
+(:attr:`Solution.missing`, ``Run.missing``).  A run none of whose positions can
+be reached, an input error or Ctrl-C stop it; everything computed before is
+kept.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -190,6 +195,9 @@ def solve(prep: Prepared, times: np.ndarray, start: np.ndarray | None,
     message = ""
     interrupted = False
     last: Solution | None = None
+    solved: list[int] = []  # the output steps reached, in order
+    missing: list[int] = []
+    starts: list[int] = []  # the output step of each part's first step
     k = 0
     try:
         if lagged:  # the values at the start posture: a sweep that holds every driver
@@ -219,25 +227,37 @@ def solve(prep: Prepared, times: np.ndarray, start: np.ndarray | None,
                 message = _stop_message(prep, times, k, motions, f"{exc}")
                 break
             parts.append(res)
+            starts.append(k)
+            solved.extend(range(k, k + res.nsteps))
             if lagged and res.nsteps:
                 last = Solution(res, times[k:k + 1])
             if res.interrupted:
                 raise KeyboardInterrupt
-            if res.message:
-                message = _stop_message(prep, times, k + res.nsteps, motions,
-                                        _why(res.message))
-                break
-            cur = res.q[-1]
+            if res.nsteps:
+                cur = res.q[-1]
+            if res.message:  # this position cannot be reached: skipped, as IMP did
+                bad = k + res.nsteps
+                missing.append(bad)
+                notes.append(_skip_message(prep, times, bad, motions, _why(res.message)))
+                k = bad + 1
+                continue
             k += m
             if progress is not None and lagged:
                 progress(k, n)
     except KeyboardInterrupt:
         interrupted = True
-        k = sum(p.nsteps for p in parts)
+        k = (solved[-1] + 1) if solved else 0
         message = _stop_message(prep, times, min(k, n - 1), motions,
                                 "interrupted by the user (Ctrl-C)", want=False)
-    sol = Solution.of(parts, empty, times, message)
+    if missing and not solved and not message:
+        message = (f"no position of the run can be reached (the first, step {missing[0]}, "
+                   f"time {times[missing[0]]:.6f}: see its message)")
+    sol = Solution.of(parts, empty, times, message, solved)
     sol.interrupted = interrupted
+    sol.missing = [float(times[j]) for j in missing]
+    if missing:  # singular postures and switches numbered by output step, not by row
+        _number_by_output_step(sol, parts, starts)
+        sol.grid = times
     if motions.halt is not None and not message:
         record_halt(sol, prep, times, motions)
     return sol
@@ -301,20 +321,43 @@ def _structure(prep: Prepared, times: np.ndarray, cur: np.ndarray | None) -> Sol
     return Solution(res, times[:res.nsteps], res.message)
 
 
+def _number_by_output_step(sol: Solution, parts: list[Trajectory], starts: list[int]) -> None:
+    """Number the singular postures and input switches of ``sol`` by output step (a part
+    starting at output step k numbers its own from k): skipped steps leave gaps."""
+    sing, sw = [], []
+    for p, k in zip(parts, starts, strict=True):
+        if not p.nsteps:  # a position skipped alone: its message says why
+            continue
+        sing += [replace(r, step=r.step + k, position=r.position + k) for r in p.singularities]
+        sw += [replace(w, step=w.step + k) for w in p.switches]
+    sol.traj.singularities, sol.traj.switches = sing, sw
+
+
+def _skip_message(prep: Prepared, times: np.ndarray, k: int, motions: Motions,
+                  why: str) -> str:
+    """The message of a position that cannot be reached and is skipped."""
+    asked = ", ".join(_sgc_texts(prep, motions, k)) or "no input"
+    w = prep.spec.where
+    return (f"{w[0]}:{w[1]}: EXECUTE: step {k} (time {times[k]:.6f}; {asked}) cannot be "
+            f"reached: {why}; it is skipped and the run goes on")
+
+
+def _sgc_texts(prep: Prepared, motions: Motions, step: int) -> list[str]:
+    """The input motions asked for at ``step``, one text per driver."""
+    parts = []
+    for j, d in enumerate(prep.drivers):
+        v = motions.p[step, j] * d.sign
+        v = math.degrees(v) if d.kind == "angle" else v
+        parts.append(f"{d.joint} {d.var + 1} = {v:.6g}" + (" deg" if d.kind == "angle" else ""))
+    return parts
+
+
 def _stop_message(prep: Prepared, times: np.ndarray, k: int, motions: Motions, why: str,
                   want: bool = True) -> str:
     """Why the run stopped at step ``k`` and what it kept; ``want`` shows the
     input posture asked for at ``k``."""
-    drivers = prep.drivers
-
     def sgc_text(step: int) -> str:
-        parts = []
-        for j, d in enumerate(drivers):
-            v = motions.p[step, j] * d.sign
-            v = math.degrees(v) if d.kind == "angle" else v
-            parts.append(f"{d.joint} {d.var + 1} = {v:.6g}" + (" deg" if d.kind == "angle"
-                                                                 else ""))
-        return ", ".join(parts) or "no input"
+        return ", ".join(_sgc_texts(prep, motions, step)) or "no input"
 
     at = min(k, len(times) - 1)
     asked = f"; {sgc_text(at)}" if want else ""

@@ -126,10 +126,15 @@ class Context:
 def singular_notes(sol: Solution, stepped: bool) -> list[str]:
     """One message per singular posture and driver switch of a solved run."""
     out = []
+    grid = sol.times if sol.grid is None else sol.grid
     for r in sol.traj.singularities:
-        k = min(r.step, sol.n - 1)
-        out.append(f"Singular posture {r}" + ("" if stepped or k < 0 else
-                                              f" (time near {sol.times[k]:.6g})"))
+        k = min(r.step, len(grid) - 1)
+        text = str(r)
+        if sol.missing:  # the run went on past it (kinematic.solve)
+            text = text.replace("the sweep stops there", "the positions beyond it that cannot "
+                                "be reached are skipped")
+        out.append(f"Singular posture {text}" + ("" if stepped or k < 0 else
+                                                 f" (time near {grid[k]:.6g})"))
     for w in sol.traj.switches:
         out.append(f"Input switched: {w}")
     return out
@@ -205,6 +210,7 @@ def _results(spec: RunSpec, ctx: Context, prep: Prepared, sol: Solution, notes: 
     """The solution of one EXECUTE made into its tables, printout, listings, graphics and
     held reference (into ``run`` and through ``ctx``)."""
     state = spec.state
+    run.missing = list(sol.missing or [])
     bodies, points = needs(prep, sol.n)
     sol.traj.prefetch(bodies, points)  # one pass over the steps for every table
     for text in singular_notes(sol, stepped(state)):

@@ -47,14 +47,22 @@ class Solution:
     #: energy audit, integration statistics, coordinate switches and events); its arrays
     #: run over the output times from the first step of the run
     response: Any = None
+    #: kinematic mode: the output times of the positions that could not be reached and
+    #: were skipped (IMP's way through a limit of travel); not among :attr:`times`
+    missing: list[float] | None = None
+    #: every output time of the run when some are missing (singular postures are then
+    #: numbered by output step); None: :attr:`times`
+    grid: np.ndarray | None = None
 
     @classmethod
     def of(cls, parts: Sequence[Trajectory], empty: Trajectory, times: np.ndarray,
-           message: str = "") -> Solution:
-        """The solution of the trajectories ``parts`` in order (``empty`` when none)."""
+           message: str = "", steps: Sequence[int] | None = None) -> Solution:
+        """The solution of the trajectories ``parts`` in order (``empty`` when none);
+        ``steps``: the indices into ``times`` of their steps (default: the first ones)."""
         parts = [p for p in parts if p.nsteps]
         traj = Trajectory.concatenate(parts) if parts else empty
-        return cls(traj, np.asarray(times[:traj.nsteps], dtype=float), message)
+        t = times[:traj.nsteps] if steps is None else times[np.asarray(steps, int)]
+        return cls(traj, np.asarray(t, dtype=float), message)
 
     @property
     def n(self) -> int:
