@@ -89,6 +89,9 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--quiet", action="store_true",
                    help="print nothing on stdout (errors and failures still go to stderr)")
     r.add_argument("--strict", action="store_true", help=_STRICT)
+    r.add_argument("--user", metavar="FILE.py",
+                   help="a Python file whose dict USER = {'NAME': f, ...} supplies the deck's "
+                        "USER(NAME) functions, f(t, nderiv) -> value or time derivative")
     r.add_argument("--imp-listing", action="store_true",
                    help="IMP's printout: a run without DATA TIME lists a Time column and "
                         "prints 'time =' lines, as IMP did (default: Step, 'step =')")
@@ -166,6 +169,35 @@ def _load(path: str, allow_read: Sequence[str] = (), strict: bool = False,
     for w in deck.warnings:
         _err(str(w))
     return deck
+
+
+def _user_functions(path: str) -> bool:
+    """Register the USER functions of ``path`` (its dict ``USER``); False after saying
+    why they cannot be (the file does not run, has no USER dict, a bad entry)."""
+    import runpy
+
+    from openimp.errors import InputError
+    from openimp.files import quote_path
+    from openimp.imp import register_user
+
+    where = f"openimp: error: --user {quote_path(path)}"
+    try:
+        names = runpy.run_path(path)
+    except Exception as exc:  # the user's file: said, never a traceback
+        _err(f"{where}: the file does not run ({type(exc).__name__}: {exc})")
+        return False
+    table = names.get("USER")
+    if not isinstance(table, dict) or not table:
+        _err(f"{where}: define a dict USER = {{'NAME': f, ...}} in it, f(t, nderiv) returning "
+             "the value (nderiv 0) or its first or second time derivative")
+        return False
+    try:
+        for name, fn in table.items():
+            register_user(str(name), fn)
+    except InputError as exc:
+        _err(f"{where}: {exc}")
+        return False
+    return True
 
 
 def _cmd_check(args: argparse.Namespace) -> int:
@@ -291,6 +323,8 @@ def _run_deck(args: argparse.Namespace, talk: Any) -> int:
     from openimp.errors import OutputError
     from openimp.files import inputs_of_run, printable
 
+    if args.user and not _user_functions(args.user):
+        return EXIT_INPUT
     deck = _load(args.deck, args.allow_read or (), args.strict, args.imp_listing)
     if deck is None:
         return EXIT_INPUT

@@ -410,8 +410,8 @@ class Run:
         finally:
             self.locating = False
         t_ev = t0 + hi
-        for i in changed:
-            if crossed(g0[i:i + 1], g_end[i:i + 1])[0]:
+        for i in changed:  # a function leaving exactly 0 (at rest at the start) is no event
+            if crossed(g0[i:i + 1], g_end[i:i + 1])[0] and g0[i] != 0.0:
                 self.events.append(Event(t_ev, self.switch_fns.name(int(i)),
                                          1 if g0[i] <= 0 else -1))
         w.hnext[0] = hnext

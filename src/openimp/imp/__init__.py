@@ -13,6 +13,7 @@ from openimp.imp.expr import (
     SimulationStop,
     load_table,
     parse_expression,
+    register_user,
 )
 from openimp.imp.lexer import SourceStatement, Token, split_statements, tokenize
 from openimp.imp.parser import (
@@ -48,6 +49,7 @@ __all__ = [
     "parse_file",
     "parse_statement",
     "parse_text",
+    "register_user",
     "split_statements",
     "tokenize",
 ]

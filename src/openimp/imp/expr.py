@@ -9,9 +9,9 @@ here calls ``eval`` or ``exec``) and evaluated against
 * a *resolver* callback ``resolve(kind, name, comp) -> float`` supplied by the
   caller for everything that depends on the model: ``kind`` is ``'TIME'``
   (``name`` None, ``comp`` 0), ``'POSITION'``, ``'VELOCITY'``, ``'ACCEL'``,
-  ``'FORCE'`` (``name`` the element, ``comp`` the rounded component) or
-  ``'USER'`` (``name`` the USER argument, ``comp`` the derivative order 0-2).
-  Returning ``nan`` (or ``None``) means "undefined".
+  ``'FORCE'`` (``name`` the element, ``comp`` the rounded component).
+  Returning ``nan`` (or ``None``) means "undefined".  ``USER(name)`` calls the
+  function registered for it (:func:`register_user`) at the resolver's TIME.
 
 Every value carries its first and second time derivatives
 (:meth:`Expression.derivatives`), propagated in forward mode: TIME is
@@ -38,7 +38,7 @@ import numpy as np
 
 from openimp import limits
 from openimp.errors import InputError, OpenIMPError
-from openimp.files import quote, quote_path, read_text
+from openimp.files import printable, quote, quote_path, read_text
 from openimp.imp.lexer import (
     NUMBER_RE,
     Scanner,
@@ -183,9 +183,36 @@ class Table(Node):
 
 @dataclass(frozen=True)
 class User(Node):
-    """``USER(name)``: a user function supplied through the resolver."""
+    """``USER(name)``: a user function (:func:`register_user`)."""
 
     name: str
+
+
+#: the functions of USER(name), by the name's significant (first four) characters:
+#: f(t, nderiv) -> the value (nderiv 0) or its first or second time derivative, IMP's
+#: ``real user(Word name, real t, int nderiv)``
+USER_FUNCTIONS: dict[str, Callable[[float, int], float]] = {}
+
+
+def register_user(name: str, function: Callable[[float, int], float] | None) -> None:
+    """Supply ``USER(name)`` of IMP decks: ``function(t, nderiv)`` returns the value at
+    time ``t`` (nderiv 0) or its first or second time derivative (nderiv 1, 2), as
+    IMP's C function did.  IMP reads the first four characters of a name (case
+    counts, as for every user name); ``None``
+    removes the function.  Each evaluation calls it (with the derivatives where the
+    VALUE needs them: a DATA MOTION, a rate); an exception or a value that is not a
+    finite number makes the VALUE undefined, with a message naming the function.
+    """
+    key = str(name)[:4]  # user names are case-sensitive
+    if not key or not key.isalnum():
+        raise InputError(f"register_user: {name!r} is not an IMP name (letters and digits)")
+    if function is None:
+        USER_FUNCTIONS.pop(key, None)
+    elif not callable(function):
+        raise InputError(f"register_user({name!r}, ...): give a function f(t, nderiv), got "
+                         f"{type(function).__name__}")
+    else:
+        USER_FUNCTIONS[key] = function
 
 
 @dataclass(frozen=True)
@@ -830,16 +857,35 @@ class _Evaluator:
             f, f1, f2 = table.derivatives(x0)
             return (f, f1 * x1, f2 * x1 * x1 + f1 * x2)
         if isinstance(node, User):
-            if self.resolve is None:
-                return self.undefined(f"USER({node.name}) is not linked in (no resolver given)",
-                                      node)
-            v = self.call(node, "USER", node.name, 0)
-            if self.order == 0:
-                return (v, 0.0, 0.0)
-            return (v, self.call(node, "USER", node.name, 1), self.call(node, "USER", node.name, 2))
+            return self.user(node)
         if isinstance(node, Stop):
             raise SimulationStop(node.kind, self.where(node))
         raise InputError(f"unknown expression node {type(node).__name__}")  # pragma: no cover
+
+    def user(self, node: User) -> Jet:
+        """USER(name) at the current time: the registered function and, where the VALUE
+        needs them, its two time derivatives (:func:`register_user`)."""
+        fn = USER_FUNCTIONS.get(node.name[:4])
+        if fn is None:
+            return self.undefined(f"USER({node.name}) is not supplied: register it with "
+                                  f"openimp.imp.register_user('{node.name}', f) or run with "
+                                  "openimp run --user FILE.py", node)
+        t = self.call(node, "TIME", None, 0)
+        if math.isnan(t):
+            return self.undefined(f"USER({node.name}) needs the time, undefined here", node)
+        out = [0.0, 0.0, 0.0]
+        for k in range(3 if self.order else 1):
+            try:
+                v = float(fn(t, k))
+            except Exception as exc:  # the user's code: said, never a traceback
+                return self.undefined(f"USER({node.name}) failed at t = {t:.6g} with nderiv "
+                                      f"{k} ({type(exc).__name__}: {printable(str(exc), 120)})",
+                                      node)
+            if not math.isfinite(v):
+                return self.undefined(f"USER({node.name}) returned {v} at t = {t:.6g} with "
+                                      f"nderiv {k}", node)
+            out[k] = v
+        return (out[0], out[1], out[2])
 
     def value(self, node: ValueRef) -> Jet:
         name = node.name

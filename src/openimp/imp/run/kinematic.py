@@ -111,8 +111,9 @@ class Motions:
              ) -> list[float] | None:
         """Value, rate and acceleration of VALUE ``m`` at step ``k`` (None: halted)."""
         resolve = resolver(k) if resolver is not None else time_only(self.times[k])
+        why: list[str] = []
         try:
-            jet = self.state.values[m].derivatives(self.state.values, resolve)
+            jet = self.state.values[m].derivatives(self.state.values, resolve, notes=why)
         except SimulationStop as stop:
             self._halt(k, stop.kind, f"{stop.where[0]}:{stop.where[1]}: VALUE {m} (DATA MOTION "
                        f"of joint {d.joint}) evaluated {stop.kind} at time "
@@ -126,7 +127,7 @@ class Motions:
                     self.notes.append(
                         f"{d.inp.where[0]}:{d.inp.where[1]}: VALUE {m} (DATA MOTION of joint "
                         f"{d.joint}) is undefined at time {self.times[k]:.6f}; IMP uses 0 "
-                        "for it")
+                        "for it" + (f" ({why[0].split(': ', 1)[-1]})" if why else ""))
                 x = 0.0
             top, name = (MAX_NUMBER, "MAX_NUMBER") if i == 0 else (MAX_RATE, "MAX_RATE")
             if abs(x) > top:

@@ -100,12 +100,10 @@ def value_resolver(prep: Prepared, sol: Solution, k: int, t: float, motions: Any
             return t
         if kind == "FORCE" and sol.forces is not None and 0 <= k < sol.n:
             return sol.forces.value(name or "", comp, k)
-        if kind in ("FORCE", "USER"):
-            label = "FORCE(...)" if kind == "FORCE" else f"USER({name})"
-            note = (f"{label} in a VALUE is undefined where the VALUE is needed before the "
+        if kind == "FORCE":
+            note = ("FORCE(...) in a VALUE is undefined where the VALUE is needed before the "
                     "forces of the step are known (a DATA MOTION, or the data of a spring, "
-                    "damper or load: the forces follow from them, a circular evaluation)"
-                    if kind == "FORCE" else f"{label} is undefined: no USER function is linked")
+                    "damper or load: the forces follow from them, a circular evaluation)")
             if note not in notes:
                 notes.append(note)
             return _NAN
