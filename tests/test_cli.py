@@ -109,7 +109,9 @@ def test_check_command(tmp_path) -> None:
 
 
 # Each malformed deck: (lines appended to the four-bar head, line of the error
-# counted from the first appended line, a word of the message).
+# counted from the first appended line, a word of the message).  Run with --strict:
+# a statement IMP passed over is then refused too (its default, a warning and the
+# rest run, is test_imp_tolerance's).
 MALFORMED = [
     ("FOO (A) = 1", 1, "unknown statement keyword"),
     ("ZPIN (BASE) = A2", 1, "joint name is missing"),
@@ -122,7 +124,7 @@ MALFORMED = [
     ("DATA TIME = 1, 0, 0", 1, "print step"),
     ("DATA TIME = 1, 0", 1, ""),
     ("VALUE (X) = 2 * (3", 1, "VALUE"),
-    ("POINT (NOLINK) = P9", 1, "link NOLI is not defined"),
+    ("TORQUE (NOLINK, A, B) = T9", 1, "link NOLI is not defined"),
     ("DATA POINT (P9, ABS) = 1, 2, 3", 1, "point P9 is not defined"),
     ("DATA MOTION (A) = 1, 2", 1, "1 variable(s) but 2 motions"),
     ("ZERO POSITION = -1", 1, "positive"),
@@ -148,7 +150,7 @@ MALFORMED = [
 def test_malformed_statements_exit_2(tmp_path, body: str, line: int, word: str) -> None:
     deck = tmp_path / "bad.imp"
     deck.write_text(FOURBAR_HEAD + body + "\nEND\n")
-    p = openimp("run", deck)
+    p = openimp("run", "--strict", deck)
     no_traceback(p)
     assert p.returncode == 2, (p.returncode, p.stdout, p.stderr)
     assert f"{deck}:{HEAD_LINES + line}: " in p.stderr, p.stderr
@@ -195,12 +197,14 @@ def test_analysis_failure_exit_1_partial_output(tmp_path) -> None:
     cs = tmp_path / "csv"
     p = openimp("run", DECKS / "run_fail.imp", "--json", js, "--csv", cs)
     no_traceback(p)
-    assert p.returncode == 1
-    assert "step 9" in p.stderr and "last good posture is step 8" in p.stderr
+    assert p.returncode == 1  # the crank cannot pass 90 deg: those positions are skipped
+    assert "28 position(s) could not be reached and were skipped" in p.stderr
+    assert "steps 9 to 36 (time 9.000000 to 36.000000; R1 1 = 90 deg to R1 1 = 360 deg) " \
+           "cannot be reached" in p.stdout
     assert "Listing of position of joint R1" in p.stdout
     doc = json.loads(js.read_text())
     run = doc["runs"][0]
-    assert "failure" in run and "step 9" in run["failure"]
+    assert "failure" not in run and run["missing"] == [float(k) for k in range(9, 37)]
     t = {t["item"]: t for t in run["tables"] if t["request"] == "LIST POSITION"}
     assert len(t["joint R1"]["rows"]) == 9
     assert (cs / "run1_list_position_joint_r1.csv").exists()

@@ -889,9 +889,17 @@ class TestExpressions:
         assert seen == ["POSITION"]  # a plain evaluation asks for the value only
 
     def test_user_function(self):
-        resolve = lambda k, n, c: {0: 5.0, 1: 6.0, 2: 7.0}[c] if k == "USER" else 0.0  # noqa: E731
-        assert parse_expression("USER(FUNC)").derivatives(resolve=resolve) == (5, 6, 7)
-        assert math.isnan(parse_expression("USER(FUNC)").evaluate())
+        """USER(name) calls the registered f(t, nderiv) at the resolver's TIME."""
+        from openimp.imp import register_user
+
+        resolve = lambda k, n, c: 2.0 if k == "TIME" else 0.0  # noqa: E731
+        register_user("FUNC", lambda t, n: (5.0 * t, 6.0, 7.0)[n])
+        try:
+            assert parse_expression("USER(FUNC)").derivatives(resolve=resolve) == (10, 6, 7)
+            assert math.isnan(parse_expression("USER(FUNC)").evaluate())  # no time
+        finally:
+            register_user("FUNC", None)
+        assert math.isnan(parse_expression("USER(FUNC)").evaluate(resolve=resolve))
 
     def test_references_and_names(self):
         expr = parse_expression("A + POSITION(JT5, 1) * B + USER(F) + FORCE(SP, 1) + T")

@@ -680,11 +680,16 @@ END
     assert "Value Results:" in echo
 
 
-def test_analysis_failure_keeps_solved_positions() -> None:
+def test_positions_beyond_a_limit_are_skipped() -> None:
+    """The crank cannot pass 90 deg: steps 9 to 36 are skipped with one message (IMP went
+    on), the 9 positions before are listed, Run.missing has the 28 times."""
     _deck, runs, echo = run_deck(DECKS / "run_fail.imp")
     run = runs[0]
-    assert run.failure and "step 9" in run.failure and "time 9.000000" in run.failure
-    assert "The last good posture is step 8" in run.failure
+    assert not run.failure and not run.ok
+    assert run.missing == [float(k) for k in range(9, 37)]
+    said = [ln for ln in echo if "cannot be reached" in ln]
+    assert len(said) == 1 and "steps 9 to 36 (time 9.000000 to 36.000000; R1 1 = 90 deg" \
+        in said[0], said
     assert run.table("LIST POSITION", "joint R1").rows.shape == (9, 2)
     assert "Listing of position of joint R2" in echo
 

@@ -296,6 +296,10 @@ def _report(runs: list, problems: list[str]) -> int:  # type: ignore[type-arg]
         for u in run.unsupported:
             _err(f"openimp: run {k} ({run.title}): {u}")
             status = EXIT_FAILURE
+        if run.missing:
+            _err(f"openimp: run {k} ({run.title}): {len(run.missing)} position(s) could not "
+                 "be reached and were skipped (their messages are in the listing)")
+            status = EXIT_FAILURE
     for p in problems:
         _err(f"openimp: error: {p}")
         status = EXIT_FAILURE

@@ -845,8 +845,9 @@ class Run:
 
     @property
     def ok(self) -> bool:
-        """True when the run finished and produced every request."""
-        return not self.failure and not self.unsupported
+        """True when the run finished, reached every position and produced every
+        request."""
+        return not self.failure and not self.unsupported and not self.missing
 
     def table(self, request: str, item: str) -> Table:
         """The table of a request (``'LIST POSITION'``) and item (``'joint A'``)."""

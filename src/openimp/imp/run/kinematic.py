@@ -198,6 +198,7 @@ def solve(prep: Prepared, times: np.ndarray, start: np.ndarray | None,
     last: Solution | None = None
     solved: list[int] = []  # the output steps reached, in order
     missing: list[int] = []
+    why: list[str] = []  # why each missing position cannot be reached
     starts: list[int] = []  # the output step of each part's first step
     k = 0
     try:
@@ -239,7 +240,7 @@ def solve(prep: Prepared, times: np.ndarray, start: np.ndarray | None,
             if res.message:  # this position cannot be reached: skipped, as IMP did
                 bad = k + res.nsteps
                 missing.append(bad)
-                notes.append(_skip_message(prep, times, bad, motions, _why(res.message)))
+                why.append(_why(res.message))
                 k = bad + 1
                 continue
             k += m
@@ -256,6 +257,7 @@ def solve(prep: Prepared, times: np.ndarray, start: np.ndarray | None,
     sol = Solution.of(parts, empty, times, message, solved)
     sol.interrupted = interrupted
     sol.missing = [float(times[j]) for j in missing]
+    notes.extend(_skip_messages(prep, times, motions, missing, why))
     if missing:  # singular postures and switches numbered by output step, not by row
         _number_by_output_step(sol, parts, starts)
         sol.grid = times
@@ -334,13 +336,29 @@ def _number_by_output_step(sol: Solution, parts: list[Trajectory], starts: list[
     sol.traj.singularities, sol.traj.switches = sing, sw
 
 
-def _skip_message(prep: Prepared, times: np.ndarray, k: int, motions: Motions,
-                  why: str) -> str:
-    """The message of a position that cannot be reached and is skipped."""
-    asked = ", ".join(_sgc_texts(prep, motions, k)) or "no input"
+def _skip_messages(prep: Prepared, times: np.ndarray, motions: Motions, missing: list[int],
+                   why: list[str]) -> list[str]:
+    """One message per run of consecutive positions that cannot be reached: the steps,
+    their times, the inputs asked for and why the first cannot be."""
     w = prep.spec.where
-    return (f"{w[0]}:{w[1]}: EXECUTE: step {k} (time {times[k]:.6f}; {asked}) cannot be "
-            f"reached: {why}; it is skipped and the run goes on")
+    out = []
+    i = 0
+    while i < len(missing):
+        j = i
+        while j + 1 < len(missing) and missing[j + 1] == missing[j] + 1:
+            j += 1
+        a, b = missing[i], missing[j]
+        asked = ", ".join(_sgc_texts(prep, motions, a)) or "no input"
+        if a == b:
+            out.append(f"{w[0]}:{w[1]}: EXECUTE: step {a} (time {times[a]:.6f}; {asked}) "
+                       f"cannot be reached: {why[i]}; it is skipped and the run goes on")
+        else:
+            last = ", ".join(_sgc_texts(prep, motions, b)) or "no input"
+            out.append(f"{w[0]}:{w[1]}: EXECUTE: steps {a} to {b} (time {times[a]:.6f} to "
+                       f"{times[b]:.6f}; {asked} to {last}) cannot be reached: the first "
+                       f"because {why[i]}; they are skipped and the run goes on")
+        i = j + 1
+    return out
 
 
 def _sgc_texts(prep: Prepared, motions: Motions, step: int) -> list[str]:

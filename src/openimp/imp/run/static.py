@@ -66,7 +66,7 @@ def solve(prep: Prepared, times: np.ndarray, start: np.ndarray | None,
     if laws is not None:  # while searching, a VALUE reads each posture tried (at rest)
         laws.times = np.asarray(times, float)
         laws.resolve_at = None
-        laws.resolve_state = state_resolver(prep)
+        laws.resolve_state = state_resolver(prep, at_rest=True)
     path = {system.var_names[d.column]: motions.p[:n, j] for j, d in enumerate(drivers)}
     if n == 0:
         sol = Solution(empty, times[:0], motions.halt.text if motions.halt else "")
