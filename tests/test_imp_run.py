@@ -687,7 +687,7 @@ def test_positions_beyond_a_limit_are_skipped() -> None:
     run = runs[0]
     assert not run.failure and not run.ok
     assert run.missing == [float(k) for k in range(9, 37)]
-    said = [ln for ln in echo if "cannot be reached" in ln]
+    said = [ln for ln in echo if "EXECUTE: step" in ln and "cannot be reached" in ln]
     assert len(said) == 1 and "steps 9 to 36 (time 9.000000 to 36.000000; R1 1 = 90 deg" \
         in said[0], said
     assert run.table("LIST POSITION", "joint R1").rows.shape == (9, 2)

@@ -560,9 +560,13 @@ class Interpreter:
         if f["contact"] in contacts:
             self.msg(f"Contact {f['contact']} is redefined.")
         contacts[f["contact"]] = {"solids": (f["solid1"], f["solid2"]), "where": stmt.where}
+        self.msg(f"Contact {f['contact']} is accepted but not simulated: openimp does not "
+                 "detect collisions or apply impacts yet, so a dynamic run goes on as if "
+                 "the solids passed through each other.")
 
     def _def_impact(self, stmt: Statement) -> None:
         f = stmt.fields
+        self.msg("IMPACT is accepted but not simulated: openimp does not apply impacts yet.")
         self.state.extras["impact"] = tuple(
             v if v in (0, 1, 2, 3) else 0 for v in (f["tangent"], f["moment"], f["torsion"]))
 
@@ -875,7 +879,7 @@ class Interpreter:
     def _data_contact(self, stmt: Statement) -> None:
         f = stmt.fields
         if f["contact"] not in self.state.extras.get("contacts", {}):
-            raise self.error(f"contact {f['contact']} is not defined")
+            raise self.passed(f"contact {f['contact']} is not defined")
         self.state.extras.setdefault("contact_data", {})[f["contact"]] = {
             k: f[k] for k in ("en", "et", "eb", "er", "mu")}
 
@@ -1186,6 +1190,9 @@ class Interpreter:
                              "MAX_ITERATIONS); Newton's method converges in a few, or not at "
                              "all")
         self.state.zero[what] = (tol, n)
+        if what in ("DATA", "ZERO"):  # IMP's own tests; openimp's are stated per check
+            self.msg(f"ZERO ({what}) is accepted and not used: openimp's data checks and "
+                     "zero tests have their own stated tolerances (docs/imp.md, Limits).")
 
     def _identify(self, types: list[str]) -> None:
         st = self.state

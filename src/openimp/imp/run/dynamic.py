@@ -324,37 +324,22 @@ def state_resolver(prep: Prepared, at_rest: bool = False
     search -> the VALUE resolver there: TIME, the position and velocity of a joint
     variable (radians or lengths, IMP's sign), of a point (X, Y, Z) and of a spring or
     damper (its second point's less its first's: DX, DY, DZ).  ACCEL: 0 ``at_rest`` (an
-    equilibrium); while integrating, IMP's lag: the velocity's change since the
-    integrator's last earlier evaluation over the time between (a step or a stage
-    behind), undefined at the first.  FORCE, which the loads themselves decide, is
-    undefined."""
+    equilibrium), else undefined, as FORCE: the loads decide them (IMP read them a step
+    behind; a value frozen over each step needs the accepted steps, which the
+    integrator does not report to the laws)."""
     system = prep.system
     model = prep.built.model
     extras = prep.spec.state.extras
     ends = {name: tuple(e["points"][:2]) for kind in ("dampers", "springs")
             for name, e in extras.get(kind, {}).items()}
-    #: (name, comp) -> the last (time, velocity, ACCEL) evaluated (ACCEL's lag)
-    past: dict[tuple[str, int], tuple[float, float, float]] = {}
 
     def at(s: Any) -> Callable[[str, str | None, int], float]:
         def resolve(kind: str, name: str | None, comp: int) -> float:
             if kind == "TIME":
                 return float(s.t)
-            if kind == "ACCEL" and name is not None:
-                return 0.0 if at_rest else lagged(name, comp)
+            if kind == "ACCEL" and name is not None and at_rest:
+                return 0.0
             return now(kind, name, comp)
-
-        def lagged(name: str, comp: int) -> float:
-            t, v = float(s.t), now("VELOCITY", name, comp)
-            prev = past.get((name, comp))
-            if prev is None:  # the first: undefined (IMP's 0, said once)
-                a = _NAN
-            elif prev[0] < t:
-                a = (v - prev[1]) / (t - prev[0])
-            else:  # the same instant, or a step taken again from earlier: the last value
-                a = prev[2]
-            past[(name, comp)] = (t, v, a)
-            return a
 
         def now(kind: str, name: str | None, comp: int) -> float:
             if name is None or kind not in ("POSITION", "VELOCITY"):
