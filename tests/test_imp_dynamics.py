@@ -720,17 +720,10 @@ def bounce(t: np.ndarray) -> tuple[np.ndarray, float]:
     return np.where(after, 5 * s - 5 * s**2, y), 1.0 + tc
 
 
-BOOK_SKIPS_LIFTOFF = pytest.mark.xfail(strict=True, reason=(
-    "known gap: with outputs every 0.25 s the book step, exact for the linear contact, "
-    "steps across several oscillations of the contact (its ends both in contact), so the "
-    "lift-off is never seen; a step cap from the contact's frequency is left for issue 28 "
-    "(no contact stepped over)"))
-
-
 @pytest.mark.parametrize("deck, integrator", [
     ("M07_liftoff_fine.imp", ""),
     ("M07_liftoff_fine.imp", "REMARK OPENIMP INTEGRATOR = RK, 1E-12\n"),
-    pytest.param("M06_dyn_liftoff.imp", "", marks=BOOK_SKIPS_LIFTOFF),
+    ("M06_dyn_liftoff.imp", ""),
     ("M06_dyn_liftoff.imp", "REMARK OPENIMP INTEGRATOR = RK, 1E-12\n"),
 ])
 def test_one_sided_value_spring_lands_and_lifts_off_on_time(tmp_path, deck, integrator):

@@ -296,9 +296,10 @@ def _report(runs: list, problems: list[str]) -> int:  # type: ignore[type-arg]
         for u in run.unsupported:
             _err(f"openimp: run {k} ({run.title}): {u}")
             status = EXIT_FAILURE
-        if run.missing:
+        if run.missing:  # located by the run's first message about them
+            first = next((m for m in run.messages if "cannot be reached" in m), "")
             _err(f"openimp: run {k} ({run.title}): {len(run.missing)} position(s) could not "
-                 "be reached and were skipped (their messages are in the listing)")
+                 f"be reached and were skipped; the first: {first}")
             status = EXIT_FAILURE
     for p in problems:
         _err(f"openimp: error: {p}")

@@ -177,6 +177,7 @@ class Run:
         w.role[drive.cols] = 2
         w.rtol[0], w.atol[0] = opts.rtol, opts.atol
         w.hmin[0], w.hmax[0], w.hfloor[0] = opts.min_step, opts.max_step, opts.floor
+        w.hcap[0] = math.inf  # set by the book step while switches are watched
         w.ptol[0], w.ctol[0], w.mtol[0] = opts.pivot_tol, opts.tol, opts.mass_tol
         w.fabs[0], w.fpct[0] = opts.force_error
         w.xmax[0] = XMAX

@@ -233,6 +233,8 @@ WORK_FIELDS: tuple[Field, ...] = (
     Field("atol", "f", (1,), "absolute tolerance of the rk error per step"),
     Field("hmin", "f", (1,), "smallest step (s)"),
     Field("hmax", "f", (1,), "largest step (s)"),
+    Field("hcap", "f", (1,), "the book step's cap while switches are watched: a quarter "
+          "of the shortest period of the last step's linear model (inf: none)"),
     Field("hfloor", "f", (1,), "without a smallest step: the run stops when the error "
           "control asks for less (s)"),
     Field("ptol", "f", (1,), "pivot tolerance of the elimination"),
@@ -1301,6 +1303,8 @@ def book_predict(W: Work) -> int:
         A[nF + i, 2 * nF] = w.v0[i] * tau
     A[2 * nF + 1, 2 * nF] = tau
     A[2 * nF + 2, 2 * nF + 1] = tau
+    if w.events[0] and watched_cap(A, nF, tau, W) and not w.atmin[0]:
+        return TOO_LARGE
     balls = w.ball[0, 0] >= 0
     if balls:  # ball joints in their rotation vectors (the e of a steady spin are not linear)
         to_local(A, nF, tau, w.ball, w.bax, w.fcols, w.q0, w.v0, w.bs)
@@ -1333,6 +1337,28 @@ def book_predict(W: Work) -> int:
     if big > w.xmax[0]:
         return TOO_LARGE
     return OK
+
+
+#: the largest phase of the fastest mode of a book step's linear model while switching
+#: functions are watched: a quarter period, so that a contact's oscillation is never
+#: stepped across (the book's step is exact for it, and would land in contact again
+#: with the lift-off in between unseen)
+WATCHED_PHASE = 0.5 * math.pi
+
+
+@njit(nrt=False, inline="always")
+def watched_cap(A: np.ndarray, nF: int, tau: float, W: Work) -> bool:
+    """w.hcap[0] from the step's A (its rows -M^-1 K tau): the fastest mode's omega^2 is
+    at most the largest row sum of |M^-1 K|; True when tau is beyond the cap."""
+    w = step_views(W.P)
+    w2 = 0.0
+    for i in range(nF):
+        s = 0.0
+        for j in range(nF):
+            s += abs(A[i, nF + j])
+        w2 = max(w2, s / tau)
+    w.hcap[0] = WATCHED_PHASE / math.sqrt(w2) if w2 > 0.0 else math.inf
+    return tau > w.hcap[0] * (1.0 + 1e-9)
 
 
 @njit(nrt=False)
@@ -1518,7 +1544,7 @@ def begin_step(W: Work, t_end: float) -> float:
     unless t_end is nearer); into w.h[0]."""
     w = step_views(W.P)
     t = w.t[0]
-    h = min(w.hnext[0], w.hmax[0])
+    h = min(w.hnext[0], w.hmax[0], w.hcap[0])
     h = max(h, w.hmin[0])
     w.atmin[0] = h <= w.hmin[0] * (1.0 + 1e-12)
     if t + 1.1 * h >= t_end:
