@@ -30,7 +30,7 @@ from openimp.imp.deck import load
 
 RTOL = "1E-10"
 G = 9.80665
-PEND_C, PEND_M, PEND_I = 0.25, 2.0, 1.0 / 6.0
+PEND_C, PEND_M, PEND_I = 0.25, 2.0, float(f"{1.0 / 6.0:.12f}")
 
 
 def pendulum_deck(final: float, step: float) -> str:
@@ -41,7 +41,7 @@ DATA ZPIN (A) = 0,0,0; 1,0,0; 1,0,0
 POINT (ARM) = BOB
 DATA POINT (BOB, ABS) = {PEND_C}, 0, 0
 DATA MASS (ARM, A) = {PEND_M}; {PEND_C}, 0, 0
-DATA INERTIA (ARM, A) = 0, {PEND_I!r}, {PEND_I!r}, 0, 0, 0
+DATA INERTIA (ARM, A) = 0, {PEND_I:.12f}, {PEND_I:.12f}, 0, 0, 0
 DATA GRAVITY = 0, -{G}, 0
 REMARK OPENIMP INTEGRATOR = RK, {RTOL}
 FIND DYNAMICS
@@ -63,7 +63,7 @@ def pendulum_reference(t: np.ndarray) -> np.ndarray:
 
 
 def a02_deck(n: int, final: float, step: float) -> str:
-    third = repr(1.0 / 3.0)
+    third = f"{1.0 / 3.0:.12f}"  # IMP reads columns 1-72: 12 digits fit
     lines = [f"TITLE = A02 N = {n}", "UNIT (MASS) = 1"]
     for i in range(n + 1):
         lines += [f"ZPIN (BASE, C{i}) = P{i}", f"DATA ZPIN (P{i}) = {i},0,0; {i + 1},0,0; "
@@ -83,8 +83,10 @@ def a02_deck(n: int, final: float, step: float) -> str:
 
 
 def a02_reference(n: int, t: np.ndarray) -> np.ndarray:
-    """The first tip (x, y): m_eff th'' = -g k cos(th), th(0) = pi/2, th'(0) = -1."""
-    meff, k = (n + 1) / 3.0 + n, (n + 1) / 2.0 + n
+    """The first tip (x, y): m_eff th'' = -g k cos(th), th(0) = pi/2, th'(0) = -1 (the
+    deck's 12-digit thirds in m_eff)."""
+    third = float(f"{1.0 / 3.0:.12f}")
+    meff, k = (n + 1) * third + n, (n + 1) / 2.0 + n  # the couplers translate
     sol = solve_ivp(lambda _, y: [y[1], -9.81 * k * math.cos(y[0]) / meff], (0.0, t[-1]),
                     [math.pi / 2, -1.0], t_eval=t, rtol=1e-13, atol=1e-13, method="DOP853")
     return np.stack([np.cos(sol.y[0]), np.sin(sol.y[0])], axis=1)
