@@ -19,6 +19,7 @@ import pytest
 from scipy.optimize import root
 
 from helpers.decks import run_deck, write
+from helpers.geometry import rot
 from openimp.imp.deck import load
 
 #: the joint frames of the decks below: the columns u, v, w in global axes (w along X,
@@ -30,11 +31,8 @@ DATA LINK (BOB, S) = 0,0,0; 1,0,0; 0,1,0
 
 
 def _turn(axis: int, a: float) -> np.ndarray:
-    c, s = math.cos(a), math.sin(a)
-    i, j = (axis + 1) % 3, (axis + 2) % 3
-    R = np.eye(3)
-    R[i, i], R[i, j], R[j, i], R[j, j] = c, -s, s, c
-    return R
+    """The turn by ``a`` about coordinate axis ``axis`` (0, 1, 2)."""
+    return rot(np.eye(3)[axis], a)
 
 
 def cardan(ang: np.ndarray) -> np.ndarray:

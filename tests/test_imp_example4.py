@@ -11,16 +11,14 @@ length or joint angle, the tyre's one-sided spring), not from openimp's loads.
 
 from __future__ import annotations
 
-import shutil
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from helpers.decks import run_deck, write
+from helpers.decks import MANUAL_DECKS, manual_session, run_deck, write
 
-DECK = (Path(__file__).resolve().parents[2] / "shared" / "reference" / "imp-manual-decks"
-        / "saetst.dat")
+DECK = MANUAL_DECKS / "saetst.dat"
 SESSION = "RECALL INPUT = saetst.dat\nEXECUTE HOLD\nRECALL INPUT\nEXECUTE\nEND\n"
 
 #: weights (lbf: UNIT (MASS) = 1/386.088 with g = 386.088 in/s^2) and mass centres of the
@@ -33,12 +31,7 @@ DEG = np.pi / 180.0
 
 @pytest.fixture(scope="module")
 def example4(tmp_path_factory):
-    if not DECK.exists():
-        pytest.skip("shared/reference is not beside the checkout")
-    folder = tmp_path_factory.mktemp("ex4")
-    shutil.copy(DECK, folder / "saetst.dat")
-    runs, echo = run_deck(write(folder, SESSION, "session.imp"))
-    return runs, echo
+    return manual_session(tmp_path_factory.mktemp("ex4"), "saetst.dat", SESSION)
 
 
 def _energy_stationary(tmp_path: Path) -> tuple[float, float]:

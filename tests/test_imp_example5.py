@@ -11,16 +11,11 @@ point F0 agrees with openimp's table, all 16 rows.
 
 from __future__ import annotations
 
-import shutil
-from pathlib import Path
-
 import numpy as np
 import pytest
 
-from helpers.decks import run_deck, write
+from helpers.decks import MANUAL_DECKS, manual_session
 
-REF = Path(__file__).resolve().parents[2] / "shared" / "reference"
-DECK = REF / "imp-manual-decks" / "clamp.dat"
 #: the manual's session; its .geo files are not in the manual: any closed solid serves
 SESSION = ("RECALL INPUT = clamp.dat\nDATA POSITION A = 0 30 2\nANIMATE\nEXECUTE\n"
            "DATA POSITION A = 0 4 15\nLIST POSITION F0\nEXECUTE\nEND\n")
@@ -80,13 +75,9 @@ def clamp_f0(theta_deg: np.ndarray) -> np.ndarray:
 
 @pytest.fixture(scope="module")
 def example5(tmp_path_factory):
-    if not DECK.exists():
-        pytest.skip("shared/reference is not beside the checkout")
-    folder = tmp_path_factory.mktemp("ex5")
-    shutil.copy(DECK, folder / "clamp.dat")
-    for s in SOLIDS:
-        shutil.copy(REF / "imp-solids-example-hex.geo", folder / f"BAR{s}.geo")
-    return run_deck(write(folder, SESSION, "session.imp"))
+    hexa = MANUAL_DECKS.parent / "imp-solids-example-hex.geo"
+    return manual_session(tmp_path_factory.mktemp("ex5"), "clamp.dat", SESSION,
+                          {f"BAR{s}.geo": hexa for s in SOLIDS})
 
 
 def test_clamp_deck_runs_unchanged(example5) -> None:

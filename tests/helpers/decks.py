@@ -47,3 +47,24 @@ def line_of(text: str, start: str) -> int:
         if ln.startswith(start):
             return i
     raise AssertionError(start)
+
+
+#: the manual's chapter 9 decks (shared/reference/imp-manual-decks), beside the checkout
+MANUAL_DECKS = Path(__file__).resolve().parents[3] / "shared" / "reference" / "imp-manual-decks"
+
+
+def manual_session(folder: Path, deck: str, session: str,
+                   extra: dict[str, Path] | None = None):
+    """Run the manual's ``deck`` with its ``session`` from ``folder`` (the deck and the
+    ``extra`` files copied there by name); (runs, echo).  Skips without shared/."""
+    import shutil
+
+    import pytest
+
+    src = MANUAL_DECKS / deck
+    if not src.exists():
+        pytest.skip("shared/reference is not beside the checkout")
+    shutil.copy(src, folder / deck)
+    for name, path in (extra or {}).items():
+        shutil.copy(path, folder / name)
+    return run_deck(write(folder, session, "session.imp"))

@@ -105,22 +105,9 @@ def planar_terms(
         TG[1] = g1 / Rp
         TG[2] = c[5] / Rp
         TGI[1, 1] = g2 / Rp
-        c1 = math.cos(q[0])
-        s1 = math.sin(q[0])
-        P[0] = C * c1
-        P[1] = C * s1
+        _polar_point(q[0], C, P, PG, PGI)
         P[2] = q[2]
-        PG[0, 0] = -C * s1
-        PG[0, 1] = C * c1
-        PG[1, 0] = c1
-        PG[1, 1] = s1
         PG[2, 2] = 1.0
-        PGI[0, 0, 0] = -C * c1
-        PGI[0, 0, 1] = -C * s1
-        PGI[0, 1, 0] = -s1
-        PGI[0, 1, 1] = c1
-        PGI[1, 0, 0] = -s1
-        PGI[1, 0, 1] = c1
     elif code == RACK:
         Rp = c[0]
         sg = s
@@ -216,25 +203,31 @@ def planar_terms(
         PG[0, 1] = fv[1]
         PGI[0, 0, 1] = fv[2] / ls
     elif code == FLAT_POLAR:  # Rz(phi1) Tx(r) Rz(phi2): IMP's FLAT
-        c1 = math.cos(q[0])
-        s1 = math.sin(q[0])
-        r = q[1]
         T[0] = q[0] + q[2]
         TG[0] = 1.0
         TG[2] = 1.0
-        P[0] = r * c1
-        P[1] = r * s1
-        PG[0, 0] = -r * s1
-        PG[0, 1] = r * c1
-        PG[1, 0] = c1
-        PG[1, 1] = s1
-        PGI[0, 0, 0] = -r * c1
-        PGI[0, 0, 1] = -r * s1
-        PGI[0, 1, 0] = -s1
-        PGI[0, 1, 1] = c1
-        PGI[1, 0, 0] = -s1
-        PGI[1, 0, 1] = c1
+        _polar_point(q[0], q[1], P, PG, PGI)
     return nv
+
+
+@njit(inline="always")
+def _polar_point(a: float, r: float, P: np.ndarray, PG: np.ndarray, PGI: np.ndarray) -> None:
+    """P[:2] = r (cos a, sin a) with a = q_0 and r moving with q_1 (dr/dq_1 = 1), and its
+    first (PG) and second (PGI) derivatives: the gear's centre line, FLAT's polar form."""
+    c1 = math.cos(a)
+    s1 = math.sin(a)
+    P[0] = r * c1
+    P[1] = r * s1
+    PG[0, 0] = -r * s1
+    PG[0, 1] = r * c1
+    PG[1, 0] = c1
+    PG[1, 1] = s1
+    PGI[0, 0, 0] = -r * c1
+    PGI[0, 0, 1] = -r * s1
+    PGI[0, 1, 0] = -s1
+    PGI[0, 1, 1] = c1
+    PGI[1, 0, 0] = -s1
+    PGI[1, 0, 1] = c1
 
 
 @njit

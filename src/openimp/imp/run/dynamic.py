@@ -339,9 +339,6 @@ def state_resolver(prep: Prepared, at_rest: bool = False
                 return float(s.t)
             if kind == "ACCEL" and name is not None and at_rest:
                 return 0.0
-            return now(kind, name, comp)
-
-        def now(kind: str, name: str | None, comp: int) -> float:
             if name is None or kind not in ("POSITION", "VELOCITY"):
                 return _NAN
             if name in prep.built.joints:
