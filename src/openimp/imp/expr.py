@@ -725,11 +725,11 @@ class Expression:
         return None
 
 
-def if_tests(names: Iterable[str], env: Mapping[str, Any]) -> list[tuple[Expression, Node]]:
-    """The test value of every IF that the VALUEs ``names`` reach, through the VALUEs
-    they use, each once and in a fixed order: (its expression, the test node).  A load
-    given by such VALUEs switches where one of them crosses zero."""
-    out: list[tuple[Expression, Node]] = []
+def reached(names: Iterable[str], env: Mapping[str, Any]) -> list[Expression]:
+    """The expressions of the VALUEs ``names`` and of every VALUE they use, through any
+    depth, each once, depth first in the order written (names that are not
+    expressions of ``env`` are passed over)."""
+    out: list[Expression] = []
     seen: set[str] = set()
     stack = list(reversed(list(names)))
     while stack:
@@ -738,11 +738,24 @@ def if_tests(names: Iterable[str], env: Mapping[str, Any]) -> list[tuple[Express
             continue
         seen.add(name)
         item = env.get(name)
-        if not isinstance(item, Expression):
-            continue
-        out.extend((item, n.cond) for n in item.nodes() if isinstance(n, If))
-        stack.extend(reversed(item.value_names()))
+        if isinstance(item, Expression):
+            out.append(item)
+            stack.extend(reversed(item.value_names()))
     return out
+
+
+def reads(names: Iterable[str], env: Mapping[str, Any], kinds: Iterable[str]) -> bool:
+    """True when the VALUEs ``names``, or a VALUE they use, read a model quantity of one
+    of ``kinds`` (``"POSITION"``, ``"FORCE"`` ...)."""
+    kinds = set(kinds)
+    return any(kind in kinds for ex in reached(names, env) for kind, _ in ex.references())
+
+
+def if_tests(names: Iterable[str], env: Mapping[str, Any]) -> list[tuple[Expression, Node]]:
+    """The test value of every IF that the VALUEs ``names`` reach, through the VALUEs
+    they use, each once and in a fixed order: (its expression, the test node).  A load
+    given by such VALUEs switches where one of them crosses zero."""
+    return [(ex, n.cond) for ex in reached(names, env) for n in ex.nodes() if isinstance(n, If)]
 
 
 # --------------------------------------------------------------------------- evaluator

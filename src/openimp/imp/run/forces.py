@@ -38,6 +38,7 @@ from typing import Any
 import numpy as np
 
 from openimp.errors import InputError
+from openimp.imp.expr import reads
 from openimp.imp.run.prepare import Prepared
 from openimp.imp.run.solution import Solution
 
@@ -73,19 +74,9 @@ class ForceResults:
         return float(arr[step, max(comp - 1, 0) if arr.shape[1] > 1 else 0])
 
 
-def _reads_force(name: str, values: dict[str, Any], seen: set[str]) -> bool:
-    if name in seen or name not in values:
-        return False
-    seen.add(name)
-    ex = values[name]
-    if any(kind == "FORCE" for kind, _ in ex.references()):
-        return True
-    return any(_reads_force(v, values, seen) for v in ex.value_names())
-
-
 def reads_forces(prep: Prepared, name: str) -> bool:
     """True when VALUE ``name`` (or a VALUE it uses) reads ``FORCE(...)``."""
-    return _reads_force(name, prep.spec.state.values, set())
+    return reads([name], prep.spec.state.values, ("FORCE",))
 
 
 def wants_forces(prep: Prepared) -> bool:

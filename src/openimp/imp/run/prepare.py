@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from openimp.errors import InputError
+from openimp.imp.expr import reads
 from openimp.imp.interp import (
     Built,
     InputDef,
@@ -429,14 +430,9 @@ def validate(spec: RunSpec) -> Prepared:
     return prep
 
 
-def _value_reads_model(name: str, values: dict[str, Any], seen: set[str]) -> bool:
-    if name in seen or name not in values:
-        return False
-    seen.add(name)
-    ex = values[name]
-    if any(kind in ("POSITION", "VELOCITY", "ACCEL", "FORCE") for kind, _ in ex.references()):
-        return True
-    return any(_value_reads_model(v, values, seen) for v in ex.value_names())
+
+#: the quantities of the model a VALUE may read
+_MODEL = ("POSITION", "VELOCITY", "ACCEL", "FORCE")
 
 
 def reads_model(state: State, drivers: list[Driver]) -> bool:
@@ -444,7 +440,7 @@ def reads_model(state: State, drivers: list[Driver]) -> bool:
     for d in drivers:
         if d.inp.kind == "MOTION":
             m = d.inp.motions[d.var]
-            if isinstance(m, str) and _value_reads_model(m, state.values, set()):
+            if isinstance(m, str) and reads([m], state.values, _MODEL):
                 return True
     return False
 
