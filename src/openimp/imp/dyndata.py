@@ -39,7 +39,7 @@ angle: left out) as ``file:line:`` messages of the run, which goes on.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -51,7 +51,7 @@ from openimp.imp.expr import SimulationStop, if_tests
 from openimp.model import Model
 
 __all__ = ["UNIT_MASS_DEFAULT", "DynamicData", "ValueLaws", "add_dynamic_data",
-           "inertia_tensor"]
+           "inertia_tensor", "joint_data"]
 
 #: IMP's default UNIT (MASS): one lbm in lbf s^2/in, exactly 1/386.088 (reference §2.4)
 UNIT_MASS_DEFAULT = 1.0 / 386.088
@@ -404,81 +404,90 @@ def _elements(state: Any, model: Model, laws: ValueLaws, dd: DynamicData,
 _TURNED = ("gimbal", "open_cardan", "flat_polar")
 
 
+#: the DATA statements that load joint variables: (their store in the interpreter's
+#: extras, the statement, the key of their entries, the elements that take a datum
+#: of the same name instead)
+_JOINT_DATA = (("spring_data", "DATA SPRING", "pairs", ("springs",)),
+               ("damper_data", "DATA DAMPER", "coefficients", ("dampers",)),
+               ("load_data", "DATA FORCE", "loads", ("forces", "torques")))
+
+
+def joint_data(extras: dict[str, Any]
+               ) -> Iterator[tuple[str, str, str, dict[str, Any], list[list[Datum]]]]:
+    """Every DATA SPRING, DAMPER and FORCE whose name is no element of its kind, so that
+    it loads the variables of the joint of that name: (store, statement, name, its
+    data, one list per variable: (rate, free) of a spring, (c,) or (f,), NONE as None).
+    One source for the loads put on the model and for the joint kind they need
+    (:func:`openimp.imp.interp.imp_joint`)."""
+    for store, stmt, key, kinds in _JOINT_DATA:
+        for name, data in extras.get(store, {}).items():
+            if not any(name in extras.get(k, {}) for k in kinds):
+                yield store, stmt, name, data, [
+                    list(e) if store == "spring_data" else [e] for e in data.get(key) or ()]
+
+
 def _joint_loads(state: Any, model: Model, joints: dict[str, Any], laws: ValueLaws,
                  messages: list[str]) -> bool:
+    """The joint springs, dampers and loads of the deck on ``model``.  Each entry's
+    variable is a coordinate: a joint whose default kind lacks it was built as its
+    :data:`~openimp.imp.jointmap.IMP_DIRECT` kind from the same :func:`joint_data`."""
     used_values = False
     values = state.values
-    ex = state.extras
-    for store, stmt in (("spring_data", "DATA SPRING"), ("damper_data", "DATA DAMPER"),
-                        ("load_data", "DATA FORCE")):
-        element_kinds = {"spring_data": ("springs",), "damper_data": ("dampers",),
-                         "load_data": ("forces", "torques")}[store]
-        for name, data in ex.get(store, {}).items():
-            if any(name in ex.get(k, {}) for k in element_kinds) or name not in joints:
-                continue
-            ij = joints[name][0]
-            jd = joints[name][1]
-            where = data["where"]
-            entries = {"spring_data": data.get("pairs"), "damper_data": data.get("coefficients"),
-                       "load_data": data.get("loads")}[store]
-            what = f"{stmt} ({name})"
-            if len(entries) > ij.nvar:
-                raise InputError(f"{what}: {jd.keyword} joint {name} has {ij.nvar} variable(s) "
-                                 f"but {len(entries)} entries are given", where)
-            for k, entry in enumerate(entries):
-                parts = list(entry) if store == "spring_data" else [entry]
-                if all(p is None for p in parts):
-                    continue  # NONE
-                drive = ij.drive[k]
-                if drive is None:  # IMP has it; openimp cannot yet: said, left out
-                    messages.append(f"{_loc(where)}warning: {what}: variable {k + 1} of "
-                                    f"{jd.keyword} joint {name} cannot carry a spring, damper "
-                                    f"or load in openimp yet (its {jd.keyword} angles are not "
-                                    "variables of the solver): this entry is left out of the "
-                                    "force analysis; give NONE for it to silence this")
-                    continue
-                col, sign = drive
-                angle = ij.var_kinds[k] == "angle"
-                lab = f"{stmt} of joint {name} variable {k + 1}"
-                is_value = _value_names(parts, values, what, where)
-                used_values = used_values or is_value
-                try:
-                    if store == "spring_data":
-                        rate, free = parts
-                        # numbers: torque/degree and degrees; VALUEs: per radian and radians
-                        kdeg = 180.0 / math.pi if angle else 1.0
-                        fdeg = math.pi / 180.0 if angle else 1.0
-                        if is_value:
-                            kk = laws.term(rate, kdeg, lab, where)
-                            f0 = laws.term(free, fdeg, lab, where)
-                            model.set_joint_spring(name, var=col, law=laws.switched(
-                                lambda s, kk=kk, f0=f0, sg=sign: kk(s) * (s.x - sg * f0(s)),
-                                [rate, free]))
-                        else:
-                            model.set_joint_spring(name, float(rate) * kdeg,
-                                                   sign * float(free) * fdeg, var=col,
-                                                   periodic=ij.kind in _TURNED)
-                    elif store == "damper_data":
-                        c = parts[0]
-                        if is_value:
-                            cc = laws.term(c, 1.0, lab, where)
-                            model.set_joint_damper(name, var=col, law=laws.switched(
-                                lambda s, cc=cc: cc(s) * s.xd, [c]))
-                        else:
-                            _negative_damper(c, what, where, messages)
-                            model.set_joint_damper(name, float(c), var=col)
+    for store, stmt, name, data, entries in joint_data(state.extras):
+        if name not in joints:
+            continue
+        ij = joints[name][0]
+        jd = joints[name][1]
+        where = data["where"]
+        what = f"{stmt} ({name})"
+        if len(entries) > ij.nvar:
+            raise InputError(f"{what}: {jd.keyword} joint {name} has {ij.nvar} variable(s) "
+                             f"but {len(entries)} entries are given", where)
+        for k, parts in enumerate(entries):
+            if all(p is None for p in parts):
+                continue  # NONE
+            col, sign = ij.drive[k]
+            angle = ij.var_kinds[k] == "angle"
+            lab = f"{stmt} of joint {name} variable {k + 1}"
+            is_value = _value_names(parts, values, what, where)
+            used_values = used_values or is_value
+            try:
+                if store == "spring_data":
+                    rate, free = parts
+                    # numbers: torque/degree and degrees; VALUEs: per radian and radians
+                    kdeg = 180.0 / math.pi if angle else 1.0
+                    fdeg = math.pi / 180.0 if angle else 1.0
+                    if is_value:
+                        kk = laws.term(rate, kdeg, lab, where)
+                        f0 = laws.term(free, fdeg, lab, where)
+                        model.set_joint_spring(name, var=col, law=laws.switched(
+                            lambda s, kk=kk, f0=f0, sg=sign: kk(s) * (s.x - sg * f0(s)),
+                            [rate, free]))
                     else:
-                        f = parts[0]
-                        if is_value:
-                            ff = laws.term(f, 1.0, lab, where)
-                            model.set_joint_force(name, var=col, law=laws.switched(
-                                lambda s, ff=ff, sg=sign: sg * ff(s), [f]))
-                        else:
-                            model.set_joint_force(name, sign * float(f), var=col)
-                except InputError as exc:
-                    if exc.where is not None:
-                        raise
-                    raise InputError(f"{what}: {exc}", where) from None
+                        model.set_joint_spring(name, float(rate) * kdeg,
+                                               sign * float(free) * fdeg, var=col,
+                                               periodic=ij.kind in _TURNED)
+                elif store == "damper_data":
+                    c = parts[0]
+                    if is_value:
+                        cc = laws.term(c, 1.0, lab, where)
+                        model.set_joint_damper(name, var=col, law=laws.switched(
+                            lambda s, cc=cc: cc(s) * s.xd, [c]))
+                    else:
+                        _negative_damper(c, what, where, messages)
+                        model.set_joint_damper(name, float(c), var=col)
+                else:
+                    f = parts[0]
+                    if is_value:
+                        ff = laws.term(f, 1.0, lab, where)
+                        model.set_joint_force(name, var=col, law=laws.switched(
+                            lambda s, ff=ff, sg=sign: sg * ff(s), [f]))
+                    else:
+                        model.set_joint_force(name, sign * float(f), var=col)
+            except InputError as exc:
+                if exc.where is not None:
+                    raise
+                raise InputError(f"{what}: {exc}", where) from None
     return used_values
 
 

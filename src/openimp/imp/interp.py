@@ -40,7 +40,7 @@ import numpy as np
 from openimp import limits
 from openimp.errors import InputError, PassedOverError
 from openimp.files import check_readable, printable, quote_path
-from openimp.imp.dyndata import UNIT_MASS_DEFAULT, DynamicData, add_dynamic_data
+from openimp.imp.dyndata import UNIT_MASS_DEFAULT, DynamicData, add_dynamic_data, joint_data
 from openimp.imp.expr import Expression
 from openimp.imp.jointmap import (
     IMP_DIRECT,
@@ -1483,15 +1483,11 @@ def _acts_beyond(state: State, jd: JointDef, ij: Any) -> bool:
     """True when the deck puts a spring, damper, load, motion or initial condition on
     a variable of joint ``jd`` that the default kind ``ij`` has not as a coordinate."""
     name, ex = jd.name, state.extras
-    elements = ("springs", "dampers", "forces", "torques")
-    if not any(name in ex.get(k, {}) for k in elements):
-        for store, key in (("spring_data", "pairs"), ("damper_data", "coefficients"),
-                           ("load_data", "loads")):
-            entries = ex.get(store, {}).get(name, {}).get(key) or ()
-            for k, entry in enumerate(entries):
-                parts = list(entry) if isinstance(entry, tuple | list) else [entry]
-                if k < ij.nvar and ij.drive[k] is None and any(p is not None for p in parts):
-                    return True
+    for _store, _stmt, jname, _data, entries in joint_data(ex):
+        if jname == name and any(k < ij.nvar and ij.drive[k] is None
+                                 and any(p is not None for p in parts)
+                                 for k, parts in enumerate(entries)):
+            return True
     inp = state.inputs.get(name)
     if inp is not None and inp.kind == "MOTION" and any(
             m is not None and ij.drive[k] is None for k, m in enumerate(inp.motions)):
