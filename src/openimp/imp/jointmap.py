@@ -27,6 +27,7 @@ import numpy as np
 from openimp import spatial as sp
 from openimp.errors import InputError
 from openimp.joints import CATALOGUE
+from openimp.joints.cardan import cardan_angles
 
 __all__ = [
     "IMP_DIRECT",
@@ -278,11 +279,9 @@ def bevel_frames(F1: np.ndarray, F2: np.ndarray, what: str) -> tuple[np.ndarray,
 # Joint variables
 # =============================================================================
 def _cardan(R: np.ndarray) -> np.ndarray:
-    """(steps, 3) angles a, b, c with R = Rx(a) Ry(b) Rz(c), unwrapped along the steps."""
-    a = np.arctan2(-R[:, 1, 2], R[:, 2, 2])
-    b = np.arctan2(R[:, 0, 2], np.hypot(R[:, 1, 2], R[:, 2, 2]))
-    c = np.arctan2(-R[:, 0, 1], R[:, 0, 0])
-    out = np.stack([a, b, c], axis=1)
+    """(steps, 3) angles a, b, c with R = Rx(a) Ry(b) Rz(c), unwrapped along the steps
+    (the gimbal kind's extraction, :func:`openimp.joints.cardan.cardan_angles`)."""
+    out = cardan_angles(R)
     return np.unwrap(out, axis=0) if len(out) > 1 else out
 
 

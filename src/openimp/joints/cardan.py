@@ -106,12 +106,16 @@ def cardan_calc(code: int, q: np.ndarray, Phi: np.ndarray, Q: np.ndarray, dQ: np
 
 
 def cardan_angles(R: np.ndarray) -> np.ndarray:
-    """(a, b, c) with R = Rx(a) Ry(b) Rz(c) (3x3 or 4x4), b in [-90, 90] deg; at b =
-    +-90 deg (a lock: only a +- c is defined) c = 0."""
-    b = math.atan2(R[0, 2], math.hypot(R[1, 2], R[2, 2]))
-    if math.hypot(R[0, 0], R[0, 1]) < 1e-12:
-        return np.array([math.atan2(R[2, 1], R[1, 1]), b, 0.0])
-    return np.array([math.atan2(-R[1, 2], R[2, 2]), b, math.atan2(-R[0, 1], R[0, 0])])
+    """(..., 3) angles (a, b, c) with R = Rx(a) Ry(b) Rz(c) of rotations (..., 3, 3) or
+    joint matrices (..., 4, 4), b in [-90, 90] deg; at b = +-90 deg (a lock: only
+    a +- c is defined) c = 0."""
+    R = np.asarray(R, dtype=float)
+    b = np.arctan2(R[..., 0, 2], np.hypot(R[..., 1, 2], R[..., 2, 2]))
+    lock = np.hypot(R[..., 0, 0], R[..., 0, 1]) < 1e-12
+    a = np.where(lock, np.arctan2(R[..., 2, 1], R[..., 1, 1]),
+                 np.arctan2(-R[..., 1, 2], R[..., 2, 2]))
+    c = np.where(lock, 0.0, np.arctan2(-R[..., 0, 1], R[..., 0, 0]))
+    return np.stack([a, b, c], axis=-1)
 
 
 def extract_gimbal(Phi: np.ndarray, c: np.ndarray) -> np.ndarray:
