@@ -188,13 +188,13 @@ def load(path: str | os.PathLike[str], check: bool = True,
     errors: list[InputError] = []
     inputs: set[str] = set()
     with inputs_of_run(inputs):
-        deck = _read(p, roots, allow, errors, check, (strict, imp_listing))
+        deck = _read(p, roots, allow, errors, check, strict=strict, imp_listing=imp_listing)
     deck.inputs |= inputs
     return deck
 
 
 def _read(p: str, roots: tuple[str, ...], allow: list[str], errors: list[InputError],
-          check: bool, flags: tuple[bool, bool]) -> Deck:
+          check: bool, *, strict: bool, imp_listing: bool) -> Deck:
     """:func:`load` after its checks of the path: parse, carry out, check."""
     try:
         statements = parse_file(p, on_error=errors.append, allow_read=allow)
@@ -203,12 +203,12 @@ def _read(p: str, roots: tuple[str, ...], allow: list[str], errors: list[InputEr
     empty = _empty_deck(p, statements)
     if empty is not None and not errors:
         raise DeckError([empty])
-    strict, imp_listing = flags
     interp = Interpreter(os.path.dirname(p) or None, roots, strict=strict,
                          imp_listing=imp_listing)
-    for e in [e for e in errors if isinstance(e, PassedOverError)] if not strict else []:
-        errors.remove(e)  # a statement the parser dropped, IMP passed over
-        interp.pass_over(e)
+    if not strict:  # statements the parser dropped, IMP passed over: warnings
+        for e in [e for e in errors if isinstance(e, PassedOverError)]:
+            errors.remove(e)
+            interp.pass_over(e)
     interp.feed(statements)
     errors.extend(interp.errors)
     errors.sort(key=lambda e: (e.where or ("", 0))[1] if (e.where or ("",))[0] == p else 10**9)

@@ -348,42 +348,39 @@ def _skip_messages(prep: Prepared, times: np.ndarray, motions: Motions, missing:
         while j + 1 < len(missing) and missing[j + 1] == missing[j] + 1:
             j += 1
         a, b = missing[i], missing[j]
-        asked = ", ".join(_sgc_texts(prep, motions, a)) or "no input"
+        asked = _asked(prep, motions, a)
         if a == b:
             out.append(f"{w[0]}:{w[1]}: EXECUTE: step {a} (time {times[a]:.6f}; {asked}) "
                        f"cannot be reached: {why[i]}; it is skipped and the run goes on")
         else:
-            last = ", ".join(_sgc_texts(prep, motions, b)) or "no input"
             out.append(f"{w[0]}:{w[1]}: EXECUTE: steps {a} to {b} (time {times[a]:.6f} to "
-                       f"{times[b]:.6f}; {asked} to {last}) cannot be reached: the first "
-                       f"because {why[i]}; they are skipped and the run goes on")
+                       f"{times[b]:.6f}; {asked} to {_asked(prep, motions, b)}) cannot be "
+                       f"reached: the first because {why[i]}; they are skipped and the run "
+                       "goes on")
         i = j + 1
     return out
 
 
-def _sgc_texts(prep: Prepared, motions: Motions, step: int) -> list[str]:
-    """The input motions asked for at ``step``, one text per driver."""
+def _asked(prep: Prepared, motions: Motions, step: int) -> str:
+    """The input motions asked for at ``step`` (``A 1 = 30 deg, ...`` or ``no input``)."""
     parts = []
     for j, d in enumerate(prep.drivers):
         v = motions.p[step, j] * d.sign
         v = math.degrees(v) if d.kind == "angle" else v
         parts.append(f"{d.joint} {d.var + 1} = {v:.6g}" + (" deg" if d.kind == "angle" else ""))
-    return parts
+    return ", ".join(parts) or "no input"
 
 
 def _stop_message(prep: Prepared, times: np.ndarray, k: int, motions: Motions, why: str,
                   want: bool = True) -> str:
     """Why the run stopped at step ``k`` and what it kept; ``want`` shows the
     input posture asked for at ``k``."""
-    def sgc_text(step: int) -> str:
-        return ", ".join(_sgc_texts(prep, motions, step)) or "no input"
-
     at = min(k, len(times) - 1)
-    asked = f"; {sgc_text(at)}" if want else ""
+    asked = f"; {_asked(prep, motions, at)}" if want else ""
     out = f"the run stopped at step {k} (time {times[at]:.6f}{asked}): {why}"
     if k > 0:
         out += f". The last good posture is step {k - 1} (time {times[k - 1]:.6f}; " \
-               f"{sgc_text(k - 1)}); the {k} position(s) solved are listed"
+               f"{_asked(prep, motions, k - 1)}); the {k} position(s) solved are listed"
     else:
         out += ". No position was solved"
     return out
