@@ -72,29 +72,94 @@ def test_strict_refuses_the_odd_line(tmp_path, odd, k, words) -> None:
 
 
 def test_an_execute_that_cannot_run_fails_alone(tmp_path) -> None:
-    """Over-specified inputs stop that EXECUTE (its message, exit status 1); the next
-    EXECUTE runs; ``check --strict`` refuses the deck (exit 2)."""
-    text = FOUR + ("DATA POSITION (A) = 0, 10, 3\nDATA POSITION (D) = 0, 0, 3\n"
-                   "LIST POSITION (A)\nEXECUTE\nDELETE INPUT (D)\nEXECUTE\nEND\n")
+    """A DATA MOTION whose VALUE is not defined by EXECUTE stops that EXECUTE (its
+    message, exit status 1); the next EXECUTE runs; ``check --strict`` refuses the deck
+    (exit 2)."""
+    text = FOUR + ("DATA MOTION (A) = RAMP\nLIST POSITION (A)\nEXECUTE\n"
+                   "VALUE (RAMP) = 0.1 * T\nEXECUTE\nEND\n")
     p = write(tmp_path, text)
     runs, _echo = run_deck(p)
-    n = line_of(text, "DATA POSITION (D)")  # the statement to change
+    n = line_of(text, "DATA MOTION (A)")  # the statement to change
     assert len(runs) == 2 and not runs[0].ok and runs[1].ok
-    assert runs[0].failure.startswith(f"{p}:{n}: EXECUTE: over-specified motion")
+    assert runs[0].failure.startswith(f"{p}:{n}: DATA MOTION statement: VALUE RAMP is not "
+                                      "defined by EXECUTE"), runs[0].failure
+    a = runs[1].table("LIST POSITION", "joint A").rows
+    np.testing.assert_allclose(a[:, 1], np.degrees(0.1 * a[:, 0]), atol=1e-9)
     cmd = [sys.executable, "-m", "openimp.cli"]
     r = subprocess.run([*cmd, "check", str(p)], capture_output=True, text=True,
                        preexec_fn=cpu_limit)
-    assert r.returncode == 1 and f"{p}:{n}: warning: EXECUTE: over-specified" in r.stderr
+    assert r.returncode == 1 and f"{p}:{n}: warning: DATA MOTION statement: VALUE RAMP" \
+        in r.stderr
     assert "will not run" in r.stdout
     r = subprocess.run([*cmd, "check", "--strict", str(p)], capture_output=True, text=True,
                        preexec_fn=cpu_limit)
-    assert r.returncode == 2 and f"{p}:{n}: EXECUTE: over-specified" in r.stderr
+    assert r.returncode == 2 and f"{p}:{n}: DATA MOTION statement: VALUE RAMP" in r.stderr
 
 
 def test_every_execute_failing_still_refuses_the_deck(tmp_path) -> None:
-    text = FOUR + "DATA POSITION (A) = 0, 10, 3\nDATA POSITION (D) = 0, 0, 3\nEXECUTE\nEND\n"
-    with pytest.raises(DeckError, match="over-specified"):
+    text = FOUR + "DATA MOTION (A) = RAMP\nEXECUTE\nEND\n"
+    with pytest.raises(DeckError, match="VALUE RAMP is not defined by EXECUTE"):
         load(write(tmp_path, text))
+
+
+#: a parallelogram: the rocker turns with the crank, so that joint D's angle is -A's and
+#: joint B's is -A's too (B joins the crank to a coupler that stays parallel to the base)
+PARA = """ZPIN (BASE, CRNK) = A
+DATA ZPIN (A) = 0,0,0; 1,0,0; 1,0,0
+ZPIN (CRNK, CPLR) = B
+DATA ZPIN (B) = 0,1,0; 1,1,0; 1,1,0
+ZPIN (CPLR, ROCK) = C
+DATA ZPIN (C) = 2,1,0; 3,1,0; 3,1,0
+ZPIN (ROCK, BASE) = D
+DATA ZPIN (D) = 2,0,0; 3,0,0; 3,0,0
+DATA POSITION (A) = 0, 10, 3
+"""
+
+
+def test_consistent_over_specified_inputs_run(tmp_path) -> None:
+    """IMP assembled over-specified inputs that agree (issue 25): the later input is
+    checked, not driven, at every position; the run says so, ``check`` says so and
+    passes, ``--strict`` refuses it."""
+    text = PARA + "DATA POSITION (D) = 0, -10, 3\nLIST POSITION (A, D, B)\nEXECUTE\nEND\n"
+    p = write(tmp_path, text)
+    runs, echo = run_deck(p)
+    n = line_of(text, "DATA POSITION (D)")
+    assert runs[0].ok and not runs[0].missing, runs[0].failure
+    a = runs[0].table("LIST POSITION", "joint A").rows[:, 1]
+    np.testing.assert_allclose(a, [0, 10, 20, 30], atol=1e-12)
+    for joint in ("D", "B"):  # the parallelogram's closed form
+        np.testing.assert_allclose(runs[0].table("LIST POSITION", f"joint {joint}").rows[:, 1],
+                                   -a, atol=1e-9)
+    said = [ln for ln in echo if "over-specified input: joint D variable 1" in ln]
+    assert len(said) == 1 and f"{p}:{n}: DATA POSITION" in said[0]
+    cmd = [sys.executable, "-m", "openimp.cli"]
+    r = subprocess.run([*cmd, "check", str(p)], capture_output=True, text=True,
+                       preexec_fn=cpu_limit)
+    assert r.returncode == 0 and f"{p}:{n}: DATA POSITION: over-specified input" in r.stderr
+    r = subprocess.run([*cmd, "check", "--strict", str(p)], capture_output=True, text=True,
+                       preexec_fn=cpu_limit)
+    assert r.returncode == 2 and f"{p}:{n}: EXECUTE: over-specified motion" in r.stderr
+
+
+def test_over_specified_inputs_that_disagree_are_skipped(tmp_path) -> None:
+    """Where the checked input disagrees with the posture the others give, the position
+    is skipped with both values named, as IMP's assembly failed there; where it agrees
+    again the run goes on.  A turns at 10 deg/s; D is given -A up to 10 deg, then held
+    at -10 deg."""
+    text = PARA.replace("DATA POSITION (A) = 0, 10, 3", "DATA MOTION (A) = AANG") + (
+        "VALUE (AANG) = T * PI / 18\nDATA MOTION (D) = DANG\n"
+        "VALUE (DANG) = IF(T - 1.5: 0 - T * PI / 18, 0, 0 - PI / 18)\nDATA TIME = 3, 0, 1\n"
+        "LIST POSITION (A, D)\nEXECUTE\nEND\n")
+    p = write(tmp_path, text)
+    runs, _echo = run_deck(p)
+    r = runs[0]
+    assert not r.failure and r.missing == [2.0, 3.0], (r.failure, r.missing)
+    np.testing.assert_allclose(r.table("LIST POSITION", "joint D").rows[:, 1], [0, -10],
+                               atol=1e-9)
+    skip = [m for m in r.messages if "cannot be reached" in m]
+    assert len(skip) == 1 and "steps 2 to 3" in skip[0]
+    assert "the over-specified input D 1 is given the position -10 deg, but the other " \
+           "inputs and the loops make it -20 deg" in skip[0], skip[0]
 
 
 # =============================================================================
@@ -197,3 +262,14 @@ def test_statements_accepted_but_unused_say_so(tmp_path) -> None:
                      (6, "ZERO (DATA) is accepted and not used"),
                      (7, "ZERO (ZERO) is accepted and not used")):
         assert any(f"{p}:{FIRST + k}: {words}" in ln for ln in echo), (words, echo)
+
+
+def test_over_specified_rates_are_checked_too(tmp_path) -> None:
+    """Positions that agree with rates that do not (A turns at 1 rad/s, D is given no
+    velocity): the velocity of the checked input is compared as its position is."""
+    text = PARA + ("DATA VELOCITY (A) = 1\nDATA POSITION (D) = 0, -10, 3\n"
+                   "LIST POSITION (A)\nEXECUTE\nEND\n")
+    r = run_deck(write(tmp_path, text))[0][0]
+    assert r.missing == [0.0, 1.0, 2.0, 3.0]
+    assert "the over-specified input D 1 is given the velocity 0 rad/s, but the other " \
+           "inputs and the loops make it -1 rad/s" in r.failure + " ".join(r.messages)

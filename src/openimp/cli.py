@@ -204,6 +204,7 @@ def _cmd_check(args: argparse.Namespace) -> int:
     from openimp.errors import InputError
     from openimp.imp.interp import DEFAULT_TITLE
     from openimp.imp.run import not_produced, trailing_requests, validate
+    from openimp.imp.run.prepare import redundancy_notes
 
     deck: Any = _load(args.deck, args.allow_read or (), args.strict)
     if deck is None:
@@ -211,6 +212,7 @@ def _cmd_check(args: argparse.Namespace) -> int:
     specs = deck.specs
     lines: list[str] = []
     missing: list[str] = []  # worded as `openimp run` words them on stderr
+    checked: list[str] = []  # over-specified inputs, checked at every position
     for spec in specs:
         title = spec.state.title or DEFAULT_TITLE
         try:
@@ -220,6 +222,7 @@ def _cmd_check(args: argparse.Namespace) -> int:
             lines.append(f"  run {spec.index} ({spec.mode}) at {spec.where[0]}:"
                          f"{spec.where[1]}: will not run")
             continue
+        checked += redundancy_notes(prep)
         m = prep.built.model
         s = prep.system
         failure, unsupported = not_produced(spec)
@@ -231,7 +234,7 @@ def _cmd_check(args: argparse.Namespace) -> int:
                      f"{len(prep.items)} table(s)"
                      + ("; produces nothing" if failure else
                         f"; {len(unsupported)} request(s) not produced" if unsupported else ""))
-    notes = trailing_requests(deck)
+    notes = checked + trailing_requests(deck)
     if not specs:
         notes.append(f"{args.deck}: the deck has no EXECUTE statement: nothing would be run")
     if deck.interp.state.graphics.used or any(sp.state.graphics.used for sp in specs):

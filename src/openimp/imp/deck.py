@@ -90,9 +90,16 @@ class Deck:
         errors: list[InputError] = []
         for spec in self.specs:
             try:
-                validate(spec)
+                prep = validate(spec)
             except InputError as exc:
                 errors.append(exc)
+                continue
+            if spec.state.strict and prep.checks:  # IMP accepted them; strict does not
+                d = prep.checks[0]
+                errors.append(InputError(
+                    f"EXECUTE: over-specified motion: joint {d.joint} variable {d.var + 1} is "
+                    "determined by the other inputs and the loops; remove its input or drive "
+                    "another joint", d.inp.where))
         if not self.specs and self._state.joints:  # no EXECUTE: check what stands at the end
             try:
                 build_model(self._state, self._where)

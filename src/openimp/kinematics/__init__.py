@@ -31,12 +31,13 @@ from openimp.kinematics.posture import (
     newton,
     passive_freedoms,
     rank_full,
+    redundant_drivers,
 )
 from openimp.kinematics.sweep import SweepResult, sweep
 from openimp.results import Trajectory
 
 __all__ = [
     "DIVERGED", "MAXITER", "OK", "BatchResult", "SweepResult", "Trajectory", "check_drivers",
-    "eliminate_at", "free_coordinate", "newton", "passive_freedoms", "rank_full", "sweep",
-    "sweep_batch",
+    "eliminate_at", "free_coordinate", "newton", "passive_freedoms", "rank_full",
+    "redundant_drivers", "sweep", "sweep_batch",
 ]

@@ -196,6 +196,25 @@ def check_drivers(
     return np.array(free, np.int64), int(rank), float(det)
 
 
+def redundant_drivers(system: System, cols: np.ndarray, pivot_tol: float) -> list[int]:
+    """Indices into ``cols`` (driver columns, in the order given) of the drivers that the
+    earlier ones and the loop constraints determine at the modeling posture (6.5.3 e):
+    dropping them leaves an independent set, the earliest kept.  Empty when the
+    drivers are independent."""
+    data = make_data(system)
+    kept: list[int] = []
+    out: list[int] = []
+    for i, c in enumerate(np.asarray(cols, np.int64).tolist()):
+        S = make_state(system)
+        S.sgc[[*kept, c]] = True
+        rank = eliminate_at(system, data, S, pivot_tol)[0]
+        if sgc_residual(data, S.sgc, rank) > 1e-6:
+            out.append(i)
+        else:
+            kept.append(c)
+    return out
+
+
 def rank_full(system: System, state: State) -> int:
     """Rank of the whole Jacobian at ``state.q`` (nothing specified)."""
     S = make_state(system, state.q)

@@ -32,7 +32,7 @@ import numpy as np
 
 from openimp.errors import InputError
 from openimp.imp.expr import SimulationStop
-from openimp.imp.run.prepare import Driver, Prepared, reads_model
+from openimp.imp.run.prepare import Driver, Prepared, reads_model, redundancy_notes
 from openimp.imp.run.quantities import value_resolver
 from openimp.imp.run.solution import Solution
 from openimp.kinematics import free_coordinate, sweep
@@ -73,7 +73,9 @@ class Motions:
         self.times = times
         self.notes = notes
         self.state = prep.spec.state
-        n, nd = len(times), len(prep.drivers)
+        #: the SGCs, then the over-specified inputs checked against them (prep.checks)
+        self.inputs = [*prep.drivers, *prep.checks]
+        n, nd = len(times), len(self.inputs)
         self.p = np.zeros((n, nd))
         self.v = np.zeros((n, nd))
         self.a = np.zeros((n, nd))
@@ -82,7 +84,7 @@ class Motions:
 
     def fill(self, k0: int, k1: int, resolver: Callable[[int], Any] | None) -> None:
         """Fill steps k0..k1-1 (``resolver(k)`` gives the resolve function at step k)."""
-        for j, d in enumerate(self.prep.drivers):
+        for j, d in enumerate(self.inputs):
             inp = d.inp
             if inp.kind == "POSITION":
                 k = np.arange(k0, k1)
@@ -101,7 +103,7 @@ class Motions:
                 vals = self._jet(d, m, k, resolver)
                 if vals is not None:
                     self.p[k, j], self.v[k, j], self.a[k, j] = vals
-        s = np.array([d.sign for d in self.prep.drivers])
+        s = np.array([d.sign for d in self.inputs])
         if len(s):
             self.p[k0:k1] *= s
             self.v[k0:k1] *= s
@@ -175,6 +177,7 @@ def solve(prep: Prepared, times: np.ndarray, start: np.ndarray | None,
     maxit = int(maxit or 25) if "POSITION" in st.zero else 25
     ptol = st.tolerance("SYSTEM")[0] if "SYSTEM" in st.zero else 1e-10
     lagged = reads_model(st, drivers)
+    notes.extend(redundancy_notes(prep))
     cur = None if start is None else np.array(start, float)
     if not drivers:
         notes.append("No input motion is given (DATA POSITION or DATA MOTION): every free "
@@ -228,6 +231,20 @@ def solve(prep: Prepared, times: np.ndarray, start: np.ndarray | None,
             except InputError as exc:
                 message = _stop_message(prep, times, k, motions, f"{exc}")
                 break
+            bad = _disagreement(prep, motions, k, res)
+            if bad is not None:  # an over-specified input disagrees: skipped, as IMP did
+                r, text = bad
+                if r:
+                    parts.append(res.steps(0, r))
+                    starts.append(k)
+                    solved.extend(range(k, k + r))
+                missing.append(k + r)
+                why.append(text)
+                cur = res.q[r]
+                k += r + 1
+                if res.interrupted:
+                    raise KeyboardInterrupt
+                continue
             parts.append(res)
             starts.append(k)
             solved.extend(range(k, k + res.nsteps))
@@ -264,6 +281,48 @@ def solve(prep: Prepared, times: np.ndarray, start: np.ndarray | None,
     if motions.halt is not None and not message:
         record_halt(sol, prep, times, motions)
     return sol
+
+
+#: how closely an over-specified input must agree with the posture the other inputs give
+#: (radians, or lengths relative to max(1, |value|); its rate relative to max(1, |rate|))
+CONSISTENT = 1e-6
+
+
+def _disagreement(prep: Prepared, motions: Motions, k: int, res: Trajectory
+                  ) -> tuple[int, str] | None:
+    """The first row of ``res`` (solved for output steps k, k+1, ...) at which an
+    over-specified input (``prep.checks``) is not where, or not as fast as, the other
+    inputs and the loops put it, and what it disagrees by; None when all agree."""
+    if not prep.checks or not res.nsteps:
+        return None
+    q, qd, _ = res.internal()
+    n = res.nsteps
+    first, text = n, ""
+    for j, d in enumerate(motions.inputs[len(prep.drivers):], start=len(prep.drivers)):
+        given, got = motions.p[k:k + n, j], q[:, d.column]
+        err = np.abs(given - got)
+        if d.kind == "angle":  # the same angle a turn apart agrees
+            err = np.abs((given - got + math.pi) % (2 * math.pi) - math.pi)
+        else:
+            err = err / np.maximum(1.0, np.maximum(np.abs(given), np.abs(got)))
+        bad = err > CONSISTENT
+        what, a, b = "position", given, got
+        if qd is not None:
+            vg, vs = motions.v[k:k + n, j], qd[:, d.column]
+            slow = np.abs(vg - vs) > CONSISTENT * np.maximum(1.0, np.abs(vs))
+            if np.any(slow) and (not np.any(bad) or np.argmax(slow) < np.argmax(bad)):
+                bad, what, a, b = slow, "velocity", vg, vs
+        if np.any(bad) and int(np.argmax(bad)) < first:
+            first = int(np.argmax(bad))
+            x, y = a[first] * d.sign, b[first] * d.sign
+            unit = ""
+            if d.kind == "angle" and what == "position":
+                x, y, unit = math.degrees(x), math.degrees(y), " deg"
+            elif d.kind == "angle":
+                unit = " rad/s"
+            text = (f"the over-specified input {d.joint} {d.var + 1} is given the {what} "
+                    f"{x:.6g}{unit}, but the other inputs and the loops make it {y:.6g}{unit}")
+    return (first, text) if first < n else None
 
 
 def _start_values(system: Any, cur: np.ndarray | None, drv_cols: list[int], names: list[str],
@@ -364,7 +423,7 @@ def _skip_messages(prep: Prepared, times: np.ndarray, motions: Motions, missing:
 def _asked(prep: Prepared, motions: Motions, step: int) -> str:
     """The input motions asked for at ``step`` (``A 1 = 30 deg, ...`` or ``no input``)."""
     parts = []
-    for j, d in enumerate(prep.drivers):
+    for j, d in enumerate(motions.inputs):
         v = motions.p[step, j] * d.sign
         v = math.degrees(v) if d.kind == "angle" else v
         parts.append(f"{d.joint} {d.var + 1} = {v:.6g}" + (" deg" if d.kind == "angle" else ""))

@@ -22,7 +22,7 @@ from openimp.imp.interp import (
     build_model,
     compile_built,
 )
-from openimp.kinematics import check_drivers
+from openimp.kinematics import check_drivers, redundant_drivers
 from openimp.limits import MAX_RESULT_BYTES, MAX_STEPS, number_text
 from openimp.system import make_state
 
@@ -93,6 +93,9 @@ class Prepared:
     #: located messages of request items that are not produced (a FORCE request naming
     #: a spring or damper deleted at EXECUTE)
     skipped: list[str] = field(default_factory=list)
+    #: kinematic mode: inputs the other inputs and the loops determine (consistent
+    #: over-specification, which IMP accepted): not driven, checked at every position
+    checks: list[Driver] = field(default_factory=list)
 
 
 def _force_items(req: Request, state: State, built: Built, items: list[Item],
@@ -409,12 +412,19 @@ def validate(spec: RunSpec) -> Prepared:
     if spec.mode == "dynamic":
         _check_dynamic_inputs(state, built, drivers)
     freedom = (0, 0)
+    checks: list[Driver] = []
     if drivers:
         cols = np.array([d.column for d in drivers], np.int64)
         if len(set(cols.tolist())) != len(cols):  # pragma: no cover - one input per joint
             raise InputError("EXECUTE: a joint variable is driven twice", spec.where)
+        ptol = state.tolerance("SYSTEM")[0]
+        drop = redundant_drivers(system, cols, ptol) if spec.mode == "kinematic" else []
+        if drop and len(drop) < len(drivers):  # IMP assembled consistent ones: checked
+            checks = [drivers[i] for i in drop]
+            drivers = [d for i, d in enumerate(drivers) if i not in drop]
+            cols = np.array([d.column for d in drivers], np.int64)
         try:
-            freedom = _freedom(system, cols, state.tolerance("SYSTEM")[0])
+            freedom = _freedom(system, cols, ptol)
         except InputError as exc:
             where = drivers[-1].inp.where
             raise InputError(f"EXECUTE: {exc} (the input motions are given by DATA POSITION / "
@@ -423,7 +433,7 @@ def validate(spec: RunSpec) -> Prepared:
         freedom = _freedom(system, np.zeros(0, np.int64), state.tolerance("SYSTEM")[0])
     if posed:
         dynamics_items(state, built, system, drivers, freedom, items, skipped)
-    prep = Prepared(spec, built, system, drivers, items, unsupported, skipped)
+    prep = Prepared(spec, built, system, drivers, items, unsupported, skipped, checks)
     if posed:
         _check_size(prep)
     spec._prepared = prep  # type: ignore[attr-defined]
@@ -473,6 +483,20 @@ def _freedom(system: Any, cols: np.ndarray, pivot_tol: float) -> tuple[int, int]
     start.sgc[cols] = True
     free, rank, _ = check_drivers(system, start, cols, pivot_tol, True)
     return system.nq - rank, len(free)
+
+
+def redundancy_notes(prep: Prepared) -> list[str]:
+    """One located message per over-specified input of a kinematic run (``prep.checks``):
+    what is done with it.  ``openimp check`` and the run say the same."""
+    out = []
+    for d in prep.checks:
+        w = d.inp.where
+        stmt = "DATA POSITION" if d.inp.kind == "POSITION" else "DATA MOTION"
+        out.append(f"{w[0]}:{w[1]}: {stmt}: over-specified input: joint {d.joint} variable "
+                   f"{d.var + 1} is determined by the other inputs and the loops; it is not "
+                   "driven but checked at every position, and a position where it disagrees "
+                   "is skipped (IMP's assembly failed there)")
+    return out
 
 
 def not_produced(spec: RunSpec) -> tuple[str | None, list[str]]:
