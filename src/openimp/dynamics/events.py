@@ -35,7 +35,8 @@ class Switches:
         self.system = system
         self.funcs = [(slot, name, fn.switch, int(getattr(fn, "nswitch", 1)))
                       for slot, (_, name, fn, _c) in enumerate(system.laws)
-                      if callable(getattr(fn, "switch", None))]
+                      if callable(getattr(fn, "switch", None))
+                      and int(getattr(fn, "nswitch", 1)) > 0]
         #: the law's name of every switching function
         self.names = [str(name) for _s, name, _f, n in self.funcs for _ in range(n)]
 

@@ -44,14 +44,16 @@ class Hook(IntEnum):
     LAW_TERMS = 2
     #: an attempt is about to start from the step start: keep it (event location)
     SNAP = 3
-    #: a step was accepted: did a switching function change sign over it?
+    #: a step was accepted: did a switching function change sign over it?  (And the
+    #: laws that watch the accepted steps are told of it.)
     SWITCH = 4
     #: the run's loop asks whether to return to Python (the clock: progress, Ctrl-C)
     TICK = 5
 
 
-#: the handler's answers
-DONE, CROSSED, FAILED = 0, 1, -1
+#: the handler's answers (TOLD: after SWITCH, laws that watch the accepted steps now
+#: hold new values, so the step start is evaluated again)
+DONE, CROSSED, TOLD, FAILED = 0, 1, 2, -1
 
 _HANDLERS: dict[int, Callable[[int], int]] = {}
 _IDS = itertools.count(1)

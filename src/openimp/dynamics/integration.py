@@ -32,7 +32,8 @@ from openimp.kinematics.elimination import eliminate, free_columns, jacobian
 from openimp.kinematics.position import position
 from openimp.kinematics.posture import newton
 from openimp.motion import as_motion
-from openimp.results import Event
+from openimp.kinematics.track import tracker
+from openimp.results import Event, Trajectory
 from openimp.system import System, make_data, make_dyn_data
 
 #: the book's "large" displacement of one step (internal units: radians, or lengths with
@@ -157,6 +158,10 @@ class Drive:
                              f"{float(np.max(t)):.6g}")
 
 
+#: evaluations of the start at most, while the laws that watch accepted states settle
+START_PASSES = 50
+
+
 class Run:
     """One integration: the compiled work arrays, the handler of the step's hooks and
     the loop of compiled runs around them."""
@@ -189,6 +194,13 @@ class Run:
         w.driven[0] = drive.timed
         w.laws[0] = bool(system.laws)
         w.events[0] = events and bool(self.switch_fns)
+        #: the laws' ``accepted`` callables (each once): told of every accepted state
+        self.watchers: list[Any] = []
+        for _what, _name, fn, _col in system.laws:
+            f = getattr(fn, "accepted", None)
+            if callable(f) and f not in self.watchers:
+                self.watchers.append(f)
+        w.watch[0] = bool(self.watchers)
         self.instant = Instant(system, None, self.data)
         self.law = self.dyn.v.law
         self.switches: list[tuple[int, float, tuple[str, ...], tuple[str, ...]]] = []
@@ -252,14 +264,44 @@ class Run:
             elif what == hooks.Hook.TICK:
                 return self.tick()
             elif what == hooks.Hook.SWITCH:
-                self.g_end = self.switch_fns.signs(self.instant, float(self.w.t[0]))
-                if np.any(crossed(self.g_start, self.g_end)):
-                    return hooks.CROSSED
-                self.g_start = self.g_end
+                if self.w.events[0]:
+                    self.g_end = self.switch_fns.signs(self.instant, float(self.w.t[0]))
+                    if np.any(crossed(self.g_start, self.g_end)):
+                        return hooks.CROSSED  # told once the event is located
+                    self.g_start = self.g_end
+                if self.watchers:
+                    self.tell()
+                    return hooks.TOLD
         except Exception as exc:  # kept and raised by the caller, out of compiled code
             self.error = exc
             return hooks.FAILED
         return hooks.DONE
+
+    def tell(self) -> None:
+        """Tell the watching laws (:attr:`watchers`) of the state just accepted, the step
+        start w.q0, w.qd0, w.qdd0 at w.t[0]: a trajectory of one step with its
+        accelerations, its FGCs free and its SGCs specified."""
+        if not self.watchers:
+            return
+        w, system = self.w, self.system
+        nq = system.nq
+        free = np.zeros((1, nq), bool)
+        free[0, w.fcols[:int(w.nF[0])]] = True
+        spec = np.zeros(nq, bool)
+        spec[w.scols] = True
+        tr = Trajectory(system, w.q0[None, :].copy(), w.quality[:1].copy(),
+                        np.zeros(1, np.int64), free, np.zeros(1, np.int64),
+                        [system.var_names[int(c)] for c in w.scols], tracker=tracker(system),
+                        sgc=spec)
+        tr.set_rates(w.qd0[None, :].copy(), w.qdd0[None, :].copy(), np.zeros(1))
+        tr.time = np.array([float(w.t[0])])
+        longest = math.inf
+        for f in self.watchers:
+            want = f(tr)
+            if want is not None:
+                longest = min(longest, float(want))
+        if longest < w.hnext[0]:  # a watcher that reads the motion a step behind
+            w.hnext[0] = max(longest, float(w.hfloor[0]))
 
     def law_terms(self) -> None:
         """The load laws' stiffness and damping added to the book's D and K at the step
@@ -340,6 +382,17 @@ class Run:
                 raise InputError(f"at the start (t = {t0:g} s): {why(code)}")
             raise AnalysisError(f"t = {t0:g} s: {named or why(code)}")
         w.qref[0] = w.quality[0]
+        for _ in range(START_PASSES if self.watchers else 0):
+            # the laws' view of the start, then the start's derivatives again, until they
+            # settle (values read a step behind that feed back, an acceleration)
+            before = w.qdd0.copy()
+            self.tell()
+            code = stp.restart(*self.k, S, system.gen, self.W)
+            if code != Stage.OK:
+                self.failed(code)
+                raise AnalysisError(f"t = {t0:g} s: {why(code)}")
+            if np.allclose(w.qdd0, before, rtol=1e-12, atol=1e-300):
+                break
         if w.events[0]:
             self.g_start = self.switch_fns.signs(self.instant, t0)
 
@@ -416,6 +469,7 @@ class Run:
                 self.events.append(Event(t_ev, self.switch_fns.name(int(i)),
                                          1 if g0[i] <= 0 else -1))
         w.hnext[0] = hnext
+        self.tell()  # the watching laws' values at the event, used from here on
         # the law switched: the derivatives of the start are those after the switch
         code = stp.restart(*self.k, self.S, self.system.gen, self.W)
         if code != Stage.OK:

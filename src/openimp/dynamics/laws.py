@@ -28,7 +28,13 @@ class LoadState:
     damper: length and its rate; joint element: the joint variable and its
     rate; force or torque: 0); ``var(key)``, ``var_rate(key)``: any joint
     variable (``"joint"`` or ``"joint.var"``) and its rate; ``point(name)``,
-    ``point_velocity(name)``: a point's global position and velocity.
+    ``point_velocity(name)``: a point's global position and velocity;
+    ``var_accel(key)``, ``point_acceleration(name)``: accelerations, NaN where the
+    loads decide them (while a time response is integrated).
+
+    A law may also have an ``accepted(trajectory)`` attribute: a time response calls
+    it with every accepted state (a :class:`~openimp.results.Trajectory` of one step
+    with its accelerations and time), once per callable however many laws share it.
     """
 
     __slots__ = ("_tr", "step", "t", "x", "xd")
@@ -69,6 +75,23 @@ class LoadState:
         if not self._tr.has_rates:
             return np.zeros(3)
         return self._tr.point_velocity(name)[self.step].copy()
+
+    def var_accel(self, key: Any) -> float:
+        """The acceleration of a joint variable at this step (0 without rates: at rest;
+        NaN while integrating, where the loads decide it)."""
+        if not getattr(self._tr, "has_accels", self._tr.has_rates):
+            return math.nan
+        if not self._tr.has_rates:
+            return 0.0
+        return float(self._tr.qdd[self.step, self._tr.system.var_index(key)])
+
+    def point_acceleration(self, name: str) -> np.ndarray:
+        """Global acceleration (3,) of a point at this step (as :meth:`var_accel`)."""
+        if not getattr(self._tr, "has_accels", self._tr.has_rates):
+            return np.full(3, math.nan)
+        if not self._tr.has_rates:
+            return np.zeros(3)
+        return self._tr.point_acceleration(name)[self.step].copy()
 
 
 def _scale(system: Any, name: str, col: int) -> float:
@@ -153,6 +176,8 @@ class Instant:
     scratch ``data`` (the stage just evaluated), with nothing recomputed."""
 
     has_rates = True
+    #: the stage's accelerations follow from the loads being evaluated
+    has_accels = False
     nsteps = 1
 
     def __init__(self, system: Any, S: Any, data: Any) -> None:

@@ -59,7 +59,7 @@ from openimp.dynamics.ballstep import (
     to_local,
 )
 from openimp.dynamics.eom import eom_loads, eom_rates
-from openimp.dynamics.hooks import Hook, call_hook
+from openimp.dynamics.hooks import CROSSED, TOLD, Hook, call_hook
 from openimp.dynamics.linear import (
     H_MOTION,
     LinOptions,
@@ -159,6 +159,7 @@ CAPPED, FULL, EVENT = int(RunEnd.CAPPED), int(RunEnd.FULL), int(RunEnd.EVENT)
 CROSSED, PAUSED = int(RunEnd.CROSSED), int(RunEnd.PAUSED)
 H_MOTION_ROWS, H_LAWS, H_LAW_TERMS = int(Hook.MOTION), int(Hook.LAWS), int(Hook.LAW_TERMS)
 H_SNAP, H_SWITCH, H_TICK = int(Hook.SNAP), int(Hook.SWITCH), int(Hook.TICK)
+H_CROSSED, H_TOLD = CROSSED, TOLD
 
 # Dormand-Prince 5(4): nodes, stage weights (row 6 = the 5th-order weights, FSAL) and the
 # error weights b - b^ (b^ the 4th-order weights)
@@ -250,6 +251,7 @@ WORK_FIELDS: tuple[Field, ...] = (
     Field("driven", "b", (1,), "the SGC motions are Python callables (else held)"),
     Field("laws", "b", (1,), "the system has load laws (Python callables)"),
     Field("events", "b", (1,), "the laws' switching functions are watched"),
+    Field("watch", "b", (1,), "a law is told of every accepted step (Hook.SWITCH)"),
     # the coordinates
     Field("gscale", "f", ("nq",), "model units of a generalized force per internal unit"),
     Field("role", "i", ("nq",), "0 dependent, 1 FGC, 2 SGC"),
@@ -1895,13 +1897,18 @@ def _after(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, gen: np.ndarray
                 w.why[0] = NO_PROGRESS
             return STOPPED
         return -1
-    if w.events[0]:
+    if w.events[0] or w.watch[0]:
         st = call_hook(w.hook[0], H_SWITCH)
         if st < 0:
             w.why[0] = PYTHON
             return STOPPED
-        if st > 0:
+        if st == H_CROSSED:
             return EVENT
+        if st == H_TOLD:  # the laws hold new values from here: the start evaluated again
+            st = restart(KP, DP, YP, ZP, S, gen, W)
+            if st != OK:
+                w.why[0] = st
+                return STOPPED
     return after_step(KP, DP, YP, ZP, S, gen, W, O, last)
 
 

@@ -47,7 +47,7 @@ import numpy as np
 
 from openimp import massprops
 from openimp.errors import AnalysisError, InputError
-from openimp.imp.expr import SimulationStop, if_tests
+from openimp.imp.expr import SimulationStop, if_tests, reads
 from openimp.model import Model
 
 __all__ = ["UNIT_MASS_DEFAULT", "DynamicData", "ValueLaws", "add_dynamic_data",
@@ -98,7 +98,21 @@ class ValueLaws:
     #: while integrating: (RETURN or END, where and when) of the first VALUE that
     #: evaluated one; the run stops there (:func:`openimp.imp.run.dynamic.solve`)
     halted: tuple[str, str] | None = None
+    #: while integrating: ACCEL(...) and FORCE(...) read a step behind, as IMP read its
+    #: stored current values: (kind, name, comp) -> (value at the last accepted state,
+    #: its slope from the one before, that state's time) (0 before the first); the
+    #: keys are those the VALUEs have read
+    held: dict[tuple[str, str, int], tuple[float, float, float]] = field(default_factory=dict)
+    #: set by the dynamic runner: the held values at an accepted state (a one-step
+    #: trajectory with accelerations) into :attr:`held`; returns the longest next step
+    on_accept: Callable[[Any], float] | None = None
     _told: set[tuple[str, str]] = field(default_factory=set)
+
+    def accept(self, trajectory: Any) -> float:
+        """A time response accepted a state (the ``accepted`` hook of the laws whose
+        VALUEs read ACCEL or FORCE): the held values are updated there; the longest
+        next step their extrapolation allows."""
+        return math.inf if self.on_accept is None else self.on_accept(trajectory)
 
     def value(self, name: str, step: int, label: str, where: Where,
               t: float | None = None, state: Any = None) -> float:
@@ -139,10 +153,15 @@ class ValueLaws:
         one of them crosses zero, as a BumpStop's contact (a tyre that lands and lifts
         off, a damper whose rate changes with its direction).  ``law`` itself when they
         have no IF."""
-        tests = if_tests([d for d in data if isinstance(d, str)], self.values)
-        if not tests:
+        names = [d for d in data if isinstance(d, str)]
+        tests = if_tests(names, self.values)
+        lagged = reads(names, self.values, ("ACCEL", "FORCE"))
+        if not tests and not lagged:
             return law
-        return SwitchedLaw(law, self, tests)
+        out = SwitchedLaw(law, self, tests)
+        if lagged:  # told of every accepted state, to hold ACCEL and FORCE a step behind
+            out.accepted = self.accept
+        return out
 
     def resolver(self, step: int, t: float | None, state: Any) -> Any:
         """The VALUE resolver at ``step``: the solved motion's (:attr:`resolve_at`),
@@ -173,6 +192,8 @@ class ValueLaws:
 class SwitchedLaw:
     """A load law of VALUE data and the switching functions of their IFs' test values
     (``switch(state)`` -> (nswitch,); an undefined test counts as positive)."""
+
+    accepted: Callable[[Any], float] | None = None
 
     def __init__(self, law: Callable[[Any], float], laws: ValueLaws,
                  tests: list[tuple[Any, Any]]) -> None:

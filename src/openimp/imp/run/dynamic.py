@@ -318,51 +318,134 @@ def _mobility(res: Any, nsgc: int) -> None:
         res._cache.pop("mobility", None)
 
 
-def state_resolver(prep: Prepared, at_rest: bool = False
-                   ) -> Callable[[Any], Callable[[str, str | None, int], float]]:
-    """Load state of an instant of the integration or of a posture of the equilibrium
-    search -> the VALUE resolver there: TIME, the position and velocity of a joint
-    variable (radians or lengths, IMP's sign), of a point (X, Y, Z) and of a spring or
-    damper (its second point's less its first's: DX, DY, DZ).  ACCEL: 0 ``at_rest`` (an
-    equilibrium), else undefined, as FORCE: the loads decide them (IMP read them a step
-    behind; a value frozen over each step needs the accepted steps, which the
-    integrator does not report to the laws)."""
+def motion_reader(prep: Prepared) -> Callable[[Any, str, str, int], float]:
+    """``read(s, kind, name, comp)``: POSITION, VELOCITY or ACCEL (``kind``) at the load
+    state ``s`` of a joint variable (radians or lengths, IMP's variables and signs), a
+    point (X, Y, Z) or a spring or damper (its second point's less its first's: DX,
+    DY, DZ); NaN for what is not one of them."""
     system = prep.system
     model = prep.built.model
     extras = prep.spec.state.extras
     ends = {name: tuple(e["points"][:2]) for kind in ("dampers", "springs")
             for name, e in extras.get(kind, {}).items()}
 
+    def read(s: Any, kind: str, name: str, comp: int) -> float:
+        which = ("POSITION", "VELOCITY", "ACCEL").index(kind)
+        if name in prep.built.joints:
+            ij = prep.built.joints[name][0]
+            keys = system.var_names[system.joint_vars(name)]
+            q = np.array([[s.var(k) for k in keys]])
+            qd = np.array([[s.var_rate(k) for k in keys]])
+            qdd = np.array([[s.var_accel(k) if which == 2 else 0.0 for k in keys]])
+            arr = imp_variables(ij, q, qd, qdd)[which]
+            return (float(arr[0, comp - 1]) if arr is not None and 1 <= comp <= arr.shape[1]
+                    else _NAN)
+        if not 1 <= comp <= 3:
+            return _NAN
+        get = (s.point, s.point_velocity, s.point_acceleration)[which]
+        if name in ends and all(p in model.points for p in ends[name]):
+            p1, p2 = ends[name]
+            return float(np.ravel(get(p2))[comp - 1] - np.ravel(get(p1))[comp - 1])
+        if name in model.points:
+            return float(np.ravel(get(name))[comp - 1])
+        return _NAN
+
+    return read
+
+
+def state_resolver(prep: Prepared, at_rest: bool = False
+                   ) -> Callable[[Any], Callable[[str, str | None, int], float]]:
+    """Load state of an instant of the integration or of a posture of the equilibrium
+    search -> the VALUE resolver there: TIME, and POSITION and VELOCITY as
+    :func:`motion_reader` reads them.  ACCEL and FORCE: the loads decide them, so
+    ``at_rest`` (an equilibrium) ACCEL is 0 and FORCE undefined; while integrating both
+    are read a step behind, as IMP read its stored current values: extrapolated from
+    their values at the last two accepted states (:attr:`~openimp.imp.dyndata.ValueLaws.held`,
+    kept by :func:`holder`)."""
+    read = motion_reader(prep)
+    laws = prep.built.dyn.laws
+    held = None if at_rest or laws is None else laws.held
+
     def at(s: Any) -> Callable[[str, str | None, int], float]:
         def resolve(kind: str, name: str | None, comp: int) -> float:
             if kind == "TIME":
                 return float(s.t)
-            if kind == "ACCEL" and name is not None and at_rest:
-                return 0.0
-            if name is None or kind not in ("POSITION", "VELOCITY"):
+            if name is None:
                 return _NAN
-            if name in prep.built.joints:
-                ij = prep.built.joints[name][0]
-                keys = system.var_names[system.joint_vars(name)]
-                q = np.array([[s.var(k) for k in keys]])
-                qd = np.array([[s.var_rate(k) for k in keys]])
-                p, v, _ = imp_variables(ij, q, qd, None)
-                arr = p if kind == "POSITION" else v
-                return (float(arr[0, comp - 1]) if arr is not None and 1 <= comp <= arr.shape[1]
-                        else _NAN)
-            if not 1 <= comp <= 3:
-                return _NAN
-            get = s.point if kind == "POSITION" else s.point_velocity
-            if name in ends and all(p in model.points for p in ends[name]):
-                p1, p2 = ends[name]
-                return float(np.ravel(get(p2))[comp - 1] - np.ravel(get(p1))[comp - 1])
-            if name in model.points:
-                return float(np.ravel(get(name))[comp - 1])
-            return _NAN
+            if kind in ("ACCEL", "FORCE"):
+                if kind == "ACCEL" and at_rest:
+                    return 0.0
+                if held is None:
+                    return _NAN
+                v, slope, t0 = held.setdefault((kind, name, comp), (0.0, 0.0, float(s.t)))
+                return v + slope * (float(s.t) - t0)
+            return read(s, kind, name, comp)
 
         return resolve
 
     return at
+
+
+#: the jump of a value read a step behind (its value at an accepted state less its
+#: extrapolation from the two before), relative to the largest value it has had, that
+#: the steps are shortened to keep below (the lag's error per step, second order in it)
+LAG_TOL = 1e-5
+
+
+def holder(prep: Prepared, notes: list[str]) -> Callable[[Trajectory], float]:
+    """The dynamic run's :attr:`~openimp.imp.dyndata.ValueLaws.on_accept`: at an accepted
+    state (a trajectory of one step with accelerations and time) the ACCEL and FORCE
+    values the VALUEs have read (:attr:`~openimp.imp.dyndata.ValueLaws.held`: value,
+    slope from the accepted state before, time), ACCEL by :func:`motion_reader`, FORCE
+    by the force analysis of that state in IMP's dynamic-mode convention
+    (:func:`openimp.imp.run.forces.compute`).  Returns the longest next step that keeps
+    the extrapolation's jump within :data:`LAG_TOL` (inf when none is needed)."""
+    from openimp.dynamics.laws import LoadState
+    from openimp.imp.run.forces import compute
+
+    read = motion_reader(prep)
+    laws = prep.built.dyn.laws
+    assert laws is not None
+    scale: dict[tuple[str, str, int], float] = {}
+
+    def on_accept(tr: Trajectory) -> float:
+        t = float(tr.time[0])
+        s = LoadState(tr, 0, t, 0.0, 0.0)
+        forces = None
+        want = math.inf
+        for key, (v0, slope0, t0) in list(laws.held.items()):
+            kind, name, comp = key
+            if kind == "ACCEL":
+                v = read(s, kind, name, comp)
+            else:
+                if forces is None:
+                    forces = compute(prep, Solution(tr, tr.time), notes)
+                v = forces.value(name, comp, 0)
+            if not math.isfinite(v):  # a name or component that is not there: 0, told once
+                told = (f"{kind}({name}, {comp}) in a VALUE is undefined at time {t:.6f} "
+                        "(no such element or component); 0 is used for it")
+                if told not in notes:
+                    notes.append(told)
+                v = 0.0
+            h = t - t0
+            if h <= 0.0:  # the start again (its loads settled): no history yet
+                laws.held[key] = (v, slope0, t)
+                continue
+            big = scale[key] = max(scale.get(key, 0.0), abs(v), abs(v0))
+            jump = abs(v - (v0 + slope0 * h))
+            if jump > LAG_TOL * big:
+                want = min(want, 0.9 * h * math.sqrt(LAG_TOL * big / jump))
+            laws.held[key] = (v, (v - v0) / h, t)
+        if laws.held:
+            told = ("ACCEL(...) and FORCE(...) in the data of springs, dampers and loads are "
+                    "read a step behind while integrating, as IMP read its stored current "
+                    "values: extrapolated from the last two accepted steps, which are kept "
+                    f"short enough for the extrapolation to hold to {LAG_TOL:g} of the value")
+            if told not in notes:
+                notes.append(told)
+        return want
+
+    return on_accept
 
 
 def _integrate(prep: Prepared, span: np.ndarray, start: np.ndarray | None,
@@ -378,6 +461,8 @@ def _integrate(prep: Prepared, span: np.ndarray, start: np.ndarray | None,
         laws.resolve_at = None
         laws.resolve_state = state_resolver(prep)
         laws.halted = None
+        laws.held.clear()
+        laws.on_accept = holder(prep, notes)
     try:
         return simulate(prep.system, times=span, q=_start(prep, start, q0),
                         rates=rates or None, motion=motions(prep, notes) or None,
@@ -385,6 +470,7 @@ def _integrate(prep: Prepared, span: np.ndarray, start: np.ndarray | None,
     finally:
         if laws is not None:
             laws.resolve_state = None
+            laws.on_accept = None
             for m in laws.notes:
                 if m not in notes:
                     notes.append(m)
