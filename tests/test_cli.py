@@ -106,9 +106,10 @@ def test_check_command(tmp_path) -> None:
     p = openimp("check", bad)
     no_traceback(p)
     # over-specified inputs: IMP assembled them where they agree (checked at every position)
-    assert p.returncode == 0 and f"{bad}:{HEAD_LINES + 2}: DATA POSITION: over-specified input" in p.stderr
+    at = f"{bad}:{HEAD_LINES + 2}:"
+    assert p.returncode == 0 and f"{at} DATA POSITION: over-specified input" in p.stderr
     p = openimp("check", "--strict", bad)
-    assert p.returncode == 2 and f"{bad}:{HEAD_LINES + 2}:" in p.stderr and "over-specified" in p.stderr
+    assert p.returncode == 2 and at in p.stderr and "over-specified" in p.stderr
 
 
 # Each malformed deck: (lines appended to the four-bar head, line of the error

@@ -31,8 +31,8 @@ from openimp.errors import AnalysisError, InputError
 from openimp.kinematics.elimination import eliminate, free_columns, jacobian
 from openimp.kinematics.position import position
 from openimp.kinematics.posture import newton
-from openimp.motion import as_motion
 from openimp.kinematics.track import tracker
+from openimp.motion import as_motion
 from openimp.results import Event, Trajectory
 from openimp.system import System, make_data, make_dyn_data
 

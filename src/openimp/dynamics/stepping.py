@@ -50,6 +50,7 @@ from typing import NamedTuple
 import numpy as np
 
 from openimp._jit import njit, packed_views
+from openimp.dynamics import hooks as _hooks
 from openimp.dynamics.ballstep import (
     ball_axes,
     ball_blocks,
@@ -59,7 +60,7 @@ from openimp.dynamics.ballstep import (
     to_local,
 )
 from openimp.dynamics.eom import eom_loads, eom_rates
-from openimp.dynamics.hooks import CROSSED, TOLD, Hook, call_hook
+from openimp.dynamics.hooks import Hook, call_hook
 from openimp.dynamics.linear import (
     H_MOTION,
     LinOptions,
@@ -159,7 +160,7 @@ CAPPED, FULL, EVENT = int(RunEnd.CAPPED), int(RunEnd.FULL), int(RunEnd.EVENT)
 CROSSED, PAUSED = int(RunEnd.CROSSED), int(RunEnd.PAUSED)
 H_MOTION_ROWS, H_LAWS, H_LAW_TERMS = int(Hook.MOTION), int(Hook.LAWS), int(Hook.LAW_TERMS)
 H_SNAP, H_SWITCH, H_TICK = int(Hook.SNAP), int(Hook.SWITCH), int(Hook.TICK)
-H_CROSSED, H_TOLD = CROSSED, TOLD
+H_CROSSED, H_TOLD = _hooks.CROSSED, _hooks.TOLD
 
 # Dormand-Prince 5(4): nodes, stage weights (row 6 = the 5th-order weights, FSAL) and the
 # error weights b - b^ (b^ the 4th-order weights)
