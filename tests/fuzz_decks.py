@@ -54,6 +54,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+from numba.core import event as numba_event
 
 ROOT = Path(__file__).resolve().parent.parent
 SOURCES = sorted([*(ROOT / "examples").glob("*.imp"), *(ROOT / "tests" / "decks").glob("*.imp"),
@@ -347,16 +348,32 @@ class CaseTimeout(BaseException):  # not an Exception: nothing may catch it
 
 @contextlib.contextmanager
 def _time_limit(seconds: float) -> Iterator[None]:
+    """At most ``seconds`` of this process's CPU time outside numba's compiles: a hang
+    check that neither a busy machine (CPU, not wall time) nor a cold kernel cache
+    (the timer stops while a kernel compiles) can trip."""
     def alarm(signum: int, frame: object) -> None:
         raise CaseTimeout()
 
-    old = signal.signal(signal.SIGALRM, alarm)
-    signal.setitimer(signal.ITIMER_REAL, seconds)
+    old = signal.signal(signal.SIGPROF, alarm)
+    signal.setitimer(signal.ITIMER_PROF, seconds)
+    paused: list[float] = []  # the time left when the outermost compile began
+
+    class Pause(numba_event.Listener):
+        def on_start(self, event: object) -> None:
+            left = signal.setitimer(signal.ITIMER_PROF, 0)[0]
+            paused.append(left)
+
+        def on_end(self, event: object) -> None:
+            left = paused.pop() if paused else 0.0
+            if not paused and left > 0:
+                signal.setitimer(signal.ITIMER_PROF, left)
+
     try:
-        yield
+        with numba_event.install_listener("numba:compile", Pause()):
+            yield
     finally:
-        signal.setitimer(signal.ITIMER_REAL, 0)
-        signal.signal(signal.SIGALRM, old)
+        signal.setitimer(signal.ITIMER_PROF, 0)
+        signal.signal(signal.SIGPROF, old)
 
 
 @dataclass

@@ -17,16 +17,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from helpers.decks import cpu_limit
+
 DECKS = Path(__file__).parent / "decks"
 EXAMPLES = Path(__file__).parent.parent / "examples"
 FOURBAR_HEAD = (DECKS / "run_fourbar.imp").read_text().split("DATA POSITION")[0]
 HEAD_LINES = FOURBAR_HEAD.count("\n")
 
 
-def openimp(*args: str | Path, cwd: Path | None = None, timeout: float = 600
-            ) -> subprocess.CompletedProcess[str]:
+def openimp(*args: str | Path, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:
     return subprocess.run([sys.executable, "-m", "openimp.cli", *map(str, args)],
-                          capture_output=True, text=True, cwd=cwd, timeout=timeout,
+                          capture_output=True, text=True, cwd=cwd, preexec_fn=cpu_limit,
                           env={**__import__("os").environ, "MPLBACKEND": "Agg"})
 
 
@@ -48,7 +49,8 @@ def test_console_script() -> None:
     exe = shutil.which("openimp")
     if exe is None:
         pytest.skip("the openimp console script is not installed (pip install -e .)")
-    p = subprocess.run([exe, "--version"], capture_output=True, text=True, timeout=120)
+    p = subprocess.run([exe, "--version"], capture_output=True, text=True,
+                       preexec_fn=cpu_limit)
     assert p.returncode == 0 and "openimp" in p.stdout
 
 
@@ -242,7 +244,7 @@ def test_long_run_10000_steps(tmp_path) -> None:
                     "DATA VELOCITY (A) = 1\nLIST POSITION (D, CP)\nLIST VELOCITY (D)\n"
                     "EXECUTE\nEND\n")
     js = tmp_path / "long.json"
-    p = openimp("run", deck, "--json", js, "--quiet", timeout=900)
+    p = openimp("run", deck, "--json", js, "--quiet")
     no_traceback(p)
     assert p.returncode == 0, p.stderr
     doc = json.loads(js.read_text())

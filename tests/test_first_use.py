@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from helpers.decks import cpu_limit
 from openimp.imp.deck import load
 from openimp.imp.interp import DeckError
 
@@ -45,7 +46,7 @@ DATA POSITION (A) = 0, 30, 3
 
 def openimp(*args: str | Path) -> subprocess.CompletedProcess[str]:
     return subprocess.run([sys.executable, "-m", "openimp.cli", *map(str, args)],
-                          capture_output=True, text=True, timeout=600,
+                          capture_output=True, text=True, preexec_fn=cpu_limit,
                           env={**os.environ, "MPLBACKEND": "Agg"})
 
 

@@ -35,7 +35,7 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.interpolate import CubicSpline
 
-from helpers.decks import line_of, run_deck, write
+from helpers.decks import cpu_limit, line_of, run_deck, write
 from openimp.imp.deck import load
 from openimp.imp.interp import DeckError
 
@@ -55,9 +55,9 @@ def errors_of(path: Path) -> list[tuple[int, str]]:
     return [(e.where[1], str(e)) for e in info.value.errors]
 
 
-def cli(*args: str | Path, timeout: float = 600) -> subprocess.CompletedProcess:
+def cli(*args: str | Path) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "openimp.cli", *map(str, args)],
-                          capture_output=True, text=True, timeout=timeout,
+                          capture_output=True, text=True, preexec_fn=cpu_limit,
                           env={**__import__("os").environ, "MPLBACKEND": "Agg"})
 
 

@@ -36,7 +36,7 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from helpers.decks import line_of, run_deck, write
+from helpers.decks import cpu_limit, line_of, run_deck, write
 from openimp.imp.deck import load
 from openimp.imp.interp import DeckError
 
@@ -78,7 +78,7 @@ def rot2(a: float) -> np.ndarray:
 
 def cli(*args: str) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "openimp.cli", *map(str, args)],
-                          capture_output=True, text=True, timeout=600)
+                          capture_output=True, text=True, preexec_fn=cpu_limit)
 
 
 # =============================================================================

@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from helpers.decks import cpu_limit
 from openimp import io
 from openimp.imp.deck import load
 from openimp.imp.run.prepare import frequency_grid
@@ -315,9 +316,9 @@ def test_command_line_check_and_run_agree(tmp_path) -> None:
     p = write(tmp_path, text)
     env_cmd = [sys.executable, "-m", "openimp.cli"]
     check = subprocess.run([*env_cmd, "check", str(p)], capture_output=True, text=True,
-                           timeout=600)
+                           preexec_fn=cpu_limit)
     ran = subprocess.run([*env_cmd, "run", str(p)], capture_output=True, text=True,
-                         timeout=600)
+                         preexec_fn=cpu_limit)
     assert check.returncode == ran.returncode == 1
     for out in (check.stderr, ran.stderr):
         assert "Traceback" not in out

@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from helpers.decks import cpu_limit
 from openimp import joints as J  # noqa: N812
 from openimp.errors import InputError
 
@@ -480,7 +481,7 @@ def test_callable_curve_kernels_are_cached(tmp_path: Any) -> None:
     env = dict(os.environ)
     env["NUMBA_CACHE_DIR"] = str(tmp_path)
     runs = [subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
-                           timeout=600) for _ in range(2)]
+                           preexec_fn=cpu_limit) for _ in range(2)]
     for r in runs:
         assert r.returncode == 0, r.stderr
     hits, misses = (int(v) for v in runs[1].stdout.split())

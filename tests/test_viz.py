@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from helpers.decks import cpu_limit
 from openimp.errors import InputError
 from openimp.results import Table
 from openimp.viz import (
@@ -361,7 +362,8 @@ def _chromium(url: str, tmp_path: Path, *args: str) -> subprocess.CompletedProce
            "--no-first-run", "--disable-background-networking", "--disable-component-update",
            "--disable-sync", "--hide-scrollbars", f"--user-data-dir={profile}",
            "--window-size=800,600", *args, url]
-    return subprocess.run(cmd, capture_output=True, text=True, timeout=90, check=False)
+    return subprocess.run(cmd, capture_output=True, text=True, check=False,
+                          preexec_fn=cpu_limit)
 
 
 needs_chromium = pytest.mark.skipif(
