@@ -186,9 +186,11 @@ def test_check_ok_when_everything_is_produced(tmp_path) -> None:
     assert p.stdout.splitlines()[0].endswith(": OK")
     assert "openimp run --out DIR" in p.stderr  # its PLOT and ANIMATE need --out
     p = deck_file(tmp_path, FOURBAR_HEAD + "LIST POSITION (D)\nEND\n")
-    r = openimp("check", p)
-    assert r.returncode == 0
-    assert "no EXECUTE statement" in r.stderr and "LIST POSITION is not produced" in r.stderr
+    for cmd in ("check", "run"):  # nothing would be run: exit status 1, said
+        r = openimp(cmd, p)
+        assert r.returncode == 1, (cmd, r.stderr)
+        assert "no EXECUTE statement" in r.stderr
+    assert "LIST POSITION is not produced" in openimp("check", p).stderr
 
 
 # =============================================================================

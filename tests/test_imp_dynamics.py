@@ -246,7 +246,7 @@ def test_fourbar_released_against_lagrange_and_energy_balance() -> None:
     assert any(ln.strip() == "Dynamic Mode" for ln in [s.strip("* ") for s in echo])
     assert "time = 0.050000" in echo
     assert "A 1 imp 30.0000 0.000" in " ".join(echo)
-    assert any(ln.startswith("Energy: kinetic 0, potential 3.6") for ln in echo)
+    assert any(ln.startswith("Energy (force x length): kinetic 0, potential 3.6") for ln in echo)
     assert any(ln.startswith("Integration (book): ") for ln in echo)
     stats = run.table("PRINT HEADING", "integration")
     assert stats.columns[0] == "Time" and np.asarray(stats.rows)[0, 0] == pytest.approx(2.0)

@@ -315,7 +315,8 @@ def test_print_force_and_heading_format(tmp_path) -> None:
     assert echo[i + 4] == f"Torq {abs(Mz):.3f} 0.000 0.000 {Mz:.3f}"
     assert echo[i + 5] == f"Spg. SP {T:.3f}"
     h = echo.index("The Generalized Coordinates are:")
-    assert echo[h + 1] == "Joint Set by Position Velocity Acceleration"
+    assert echo[h + 1] == ("Joint Set by Position Velocity Acceleration [deg, rad/s, rad/s^2 "
+                           "or length, length/s, length/s^2]")
     assert echo[h + 2] == "A 1 user 30.0000 0.000 0.000"
     t = runs[0].table("PRINT FORCE", "spring SP")
     assert t.columns == ["Step", "Force"] and t.rows[0, 1] == pytest.approx(T, abs=1e-9)

@@ -173,3 +173,44 @@ def test_announcer_names_its_own_group(kern, module, nested, nested_module, grou
     assert f"compiling the {group} kernels too" in lines[1]
     assert f"about {getattr(_warm, seconds)} s" in lines[1]
     assert "2 kernels compiled" in lines[2]
+
+
+@pytest.mark.skipif(not _warm.JIT_ENABLED, reason="nothing compiles without numba")
+def test_a_python_session_hears_of_compiles(caplog):
+    """From Python (a script, a notebook) a compile is said through the ``openimp``
+    logger, once per group with its expected time, from numba's own compile event (a
+    real kernel compiled here, its module that of the equilibrium search); the
+    logger's level silences it; the command line's run mutes the session's."""
+    import logging
+
+    import numba
+
+    from openimp import _announce
+
+    assert _announce.announce() is _announce.announce()  # one per session
+
+    def fresh(module: str):
+        def kernel(x):
+            return x + 1.0
+
+        kernel.__module__ = module
+        return numba.njit(cache=False)(kernel)
+
+    talk = _announce.Announcer(None, live=False)
+    try:
+        with caplog.at_level(logging.WARNING, logger="openimp"):
+            fresh("openimp.dynamics.statics")(1.0)
+            fresh("openimp.dynamics.statics")(2.0)  # the same group: said once
+        said = [r.getMessage() for r in caplog.records if r.name == "openimp"
+                and "compiling the equilibrium kernels" in r.getMessage()]
+        assert len(said) == 1, [r.getMessage() for r in caplog.records]
+        assert f"about {_announce.STATIC_COMPILE_SECONDS} s of CPU" in said[0]
+        caplog.clear()
+        logging.getLogger("openimp").setLevel(logging.ERROR)
+        try:
+            fresh("openimp.dynamics.stepping")(1.0)
+        finally:
+            logging.getLogger("openimp").setLevel(logging.NOTSET)
+        assert not [r for r in caplog.records if "time-response" in r.getMessage()]
+    finally:
+        talk.close()

@@ -289,3 +289,9 @@ else:
             return cls(*out)
 
         return unpack
+
+
+if JIT_ENABLED:  # a Python session hears of every compile (openimp._announce)
+    from openimp._announce import announce as _announce
+
+    _announce()

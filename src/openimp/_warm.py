@@ -31,32 +31,21 @@ import glob
 import os
 import subprocess
 import sys
-import time
 from collections.abc import Sequence
-from typing import Any, TextIO
+from typing import Any
 
-from openimp._interrupt import PENDING
+from openimp._announce import (  # noqa: F401 - the command line's announcer
+    COMPILE_SECONDS,
+    DYNAMIC_COMPILE_SECONDS,
+    FORCE_COMPILE_SECONDS,
+    LINEAR_COMPILE_SECONDS,
+    STATIC_COMPILE_SECONDS,
+    Announcer,
+)
 from openimp._jit import JIT_ENABLED
 
 #: A kernel the helper compiles last: its cache entry means the helper's work is done.
 _LAST = "track.track-"
-
-#: CPU seconds a cold kinematic run compiles, measured on the reference 2-core machine
-#: (benchmarks/README.md); said to the user as the expected time
-COMPILE_SECONDS = 20
-#: CPU seconds a first force analysis compiles on top (openimp.dynamics; measured 16-20 s)
-FORCE_COMPILE_SECONDS = 20
-#: CPU seconds the linearization kernel compiles on top of the force stages it calls
-#: (openimp.dynamics.linear; measured on the reference machine, benchmarks/README.md)
-LINEAR_COMPILE_SECONDS = 30
-#: CPU seconds the equilibrium search compiles on top of the force stages (openimp.dynamics.
-#: statics with the stiffness stage of openimp.dynamics.linear; measured 41-57 s in the
-#: statics benchmark on the reference machine, loaded)
-STATIC_COMPILE_SECONDS = 45
-#: CPU seconds a first time response compiles (openimp.dynamics.stepping with the
-#: equations-of-motion stage it calls; measured 65 s for the Dormand-Prince run and 54 s
-#: for the book's run on the reference machine, cold cache)
-DYNAMIC_COMPILE_SECONDS = 65
 
 LOWER = "closed-form"
 GENERAL = "general"
@@ -176,107 +165,6 @@ def compile_rate_kernels(flavours: Sequence[str] = (LOWER,)) -> None:
     for flavour in flavours:
         for kernel, types in rate_kernel_signatures(flavour):
             kernel.compile(types)
-
-
-class Announcer:
-    """Says once that a run compiles kernels, and shows progress on a terminal.
-
-    Listens to numba's compile events; an event of a kernel of openimp that
-    is not nested in another compile is one step of progress.  ``stream``:
-    where to write (stderr); ``live``: rewrite a progress line in place (a
-    terminal).  :meth:`close` stops listening and, if anything compiled,
-    says how long it took.
-    """
-
-    def __init__(self, stream: TextIO, live: bool, what: str = "kinematic",
-                 prefix: str = "") -> None:
-        self.stream = stream
-        self.prefix = prefix
-        self.live = live
-        self.what = what
-        self.depth = 0
-        self.count = 0
-        self.started: float | None = None
-        self.said: set[str] = set()
-        self.finished = 0.0
-        self._listener: Any = None
-        if not JIT_ENABLED:
-            return
-        from numba.core import event
-
-        announcer = self
-
-        class _Listener(event.Listener):  # type: ignore[misc]
-            def on_start(self, ev: Any) -> None:
-                announcer._on_start(ev.data.get("dispatcher"))
-
-            def on_end(self, ev: Any) -> None:
-                announcer.depth = max(0, announcer.depth - 1)
-                announcer.finished = time.monotonic()
-                if announcer.depth == 0 and PENDING[0]:  # a Ctrl-C kept during the compile
-                    PENDING[0] = False
-                    raise KeyboardInterrupt
-
-        self._listener = _Listener()
-        event.register("numba:compile", self._listener)
-
-    def _group(self, module: str) -> tuple[str, int]:
-        """The kernels a compile belongs to and their expected CPU seconds."""
-        if module == "openimp.dynamics.linear":
-            return "linearization", LINEAR_COMPILE_SECONDS
-        if module == "openimp.dynamics.statics":
-            return "equilibrium", STATIC_COMPILE_SECONDS
-        if module == "openimp.dynamics.stepping":
-            return "time-response", DYNAMIC_COMPILE_SECONDS
-        if module.startswith("openimp.dynamics"):
-            return "force", FORCE_COMPILE_SECONDS
-        return self.what, COMPILE_SECONDS
-
-    def _on_start(self, dispatcher: Any) -> None:
-        self.depth += 1
-        fn = getattr(dispatcher, "py_func", None)
-        if fn is None or not getattr(fn, "__module__", "").startswith("openimp"):
-            return
-        # a group is said by the kernel the analysis calls, not by the stages it compiles
-        what, secs = self._group(fn.__module__)
-        if self.started is None:
-            self.started = time.monotonic()
-            self.said.add(what)
-            self._note(f"compiling the {what} kernels (the first run of this version of "
-                       f"openimp does this once: about {secs} s of CPU, later runs load them "
-                       "from the cache)")
-        elif self.depth == 1 and what not in self.said:
-            self.said.add(what)
-            self._note(f"compiling the {what} kernels too (once: about {secs}"
-                       " s of CPU more)")
-        if self.depth == 1:
-            self.count += 1
-        if self.live:
-            name = fn.__qualname__
-            self.stream.write(f"\r  compiling {name[:40]:<40} ({self.count} kernels)")
-            self.stream.flush()
-
-    def _note(self, text: str) -> None:
-        if self.live and self.count:
-            self.stream.write("\r" + " " * 70 + "\r")
-        self.stream.write(f"openimp: note: {self.prefix}{text}\n")
-        self.stream.flush()
-
-    def close(self) -> None:
-        """Stop listening; say how long compiling took when anything compiled."""
-        if self._listener is not None:
-            from numba.core import event
-
-            event.unregister("numba:compile", self._listener)
-            self._listener = None
-        if self.started is not None:
-            if self.live:
-                self.stream.write("\r" + " " * 70 + "\r")
-            self.stream.write(f"openimp: note: {self.prefix}{self.count} kernels compiled and "
-                              f"cached in "
-                              f"{self.finished - self.started:.0f} s\n")
-            self.stream.flush()
-            self.started = None
 
 
 def _flavours(argv: Sequence[str]) -> list[str]:

@@ -250,7 +250,7 @@ def _cmd_check(args: argparse.Namespace) -> int:
         print(f"openimp: {text}", file=sys.stderr)
     for text in notes:
         print(f"openimp: note: {text}", file=sys.stderr)
-    return EXIT_FAILURE if missing else EXIT_OK
+    return EXIT_FAILURE if missing or not specs else EXIT_OK
 
 
 def _target_problem(args: argparse.Namespace) -> str | None:
@@ -312,6 +312,7 @@ def _report(runs: list, problems: list[str]) -> int:  # type: ignore[type-arg]
 
 def _cmd_run(args: argparse.Namespace) -> int:
     from openimp import _warm
+    from openimp._announce import announce
 
     problem = _target_problem(args)
     if problem is not None:
@@ -320,9 +321,12 @@ def _cmd_run(args: argparse.Namespace) -> int:
     # a cold kernel cache: say so, and compile the rate kernels on an idle core
     _warm.start(_warm.deck_flavours(args.deck))
     talk = _warm.Announcer(sys.stderr, sys.stderr.isatty(), prefix=f"{args.deck}: ")
+    session = announce()
+    session.muted = True  # this run's announcer says it, with its progress line
     try:
         return _run_deck(args, talk)
     finally:
+        session.muted = False
         talk.close()
 
 
@@ -364,8 +368,9 @@ def _run_deck(args: argparse.Namespace, talk: Any) -> int:
     with inputs_of_run(getattr(deck, "inputs", set())), held_interrupt(told) as held:
         if not _write_outputs(args, runs):
             status = EXIT_FAILURE
-    if not runs:
+    if not runs:  # nothing produced: a failure, as a run that produced nothing
         note(f"{args.deck}: the deck has no EXECUTE statement: nothing was run")
+        status = max(status, EXIT_FAILURE)
     stopped = [r for r in runs if r.interrupted]
     if stopped or held[0]:
         why = stopped[0].failure if stopped else "after the runs, while their files were written"

@@ -12,6 +12,7 @@ module imports no analysis: results sit at the top of the layers
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
@@ -36,6 +37,66 @@ def screw_to_operator(s: np.ndarray) -> np.ndarray:
     out[..., :3, 3] = v
     return out
 
+
+
+class Columns(dict):  # type: ignore[type-arg]
+    """What every ``to_table()`` returns: the columns by name (a dict, so that
+    ``pandas.DataFrame(res.to_table())`` takes it), printed as an aligned table
+    (``print(res.to_table())``), at most :data:`SHOW_ROWS` rows, numbers to six
+    significant digits."""
+
+    def __str__(self) -> str:
+        cols = {k: _cells(v) for k, v in self.items()}
+        n = max((len(v) for v in cols.values()), default=0)
+        names = list(cols)
+        shown = list(range(n)) if n <= SHOW_ROWS else \
+            [*range(SHOW_ROWS // 2), -1, *range(n - SHOW_ROWS // 2, n)]
+        rows = [[("..." if r < 0 else (cols[k][r] if r < len(cols[k]) else ""))
+                 for k in names] for r in shown]
+        width = [max(len(str(k)), *(len(row[i]) for row in rows)) if rows else len(str(k))
+                 for i, k in enumerate(names)]
+        line = "  ".join(str(k).rjust(w) for k, w in zip(names, width, strict=True))
+        body = ["  ".join(c.rjust(w) for c, w in zip(row, width, strict=True)) for row in rows]
+        tail = [f"({n} rows)"] if n > SHOW_ROWS else []
+        return "\n".join([line, *body, *tail])
+
+    __repr__ = __str__
+
+
+#: rows a printed :class:`Columns` shows (the first and the last half)
+SHOW_ROWS = 20
+
+
+def _cells(v: Any) -> list[str]:
+    """One column's entries as text (a scalar is a column of one)."""
+    if isinstance(v, np.ndarray):
+        items = v.reshape(len(v), -1).tolist() if v.ndim > 1 else v.tolist()
+    elif isinstance(v, (list, tuple)):
+        items = list(v)
+    else:
+        items = [v]
+    out = []
+    for x in items:
+        if isinstance(x, (bool, np.bool_)):
+            out.append(str(bool(x)))
+        elif isinstance(x, (int, np.integer)):
+            out.append(str(int(x)))
+        elif isinstance(x, (float, np.floating)):
+            out.append(f"{float(x):.6g}")
+        elif isinstance(x, (complex, np.complexfloating)):
+            out.append(f"{complex(x):.6g}")
+        else:
+            out.append(str(x))
+    return out
+
+
+def _columns(method: Callable[..., dict[str, Any]]) -> Callable[..., Columns]:
+    """Make a ``to_table`` return :class:`Columns`."""
+    @functools.wraps(method)
+    def wrapped(self: Any) -> Columns:
+        return Columns(method(self))
+
+    return wrapped
 
 @dataclass
 class Singularity:
@@ -200,6 +261,7 @@ class EnergyAudit:
         sc = self.scale
         return _frozen(np.abs(self.balance) / sc if sc > 0 else np.zeros_like(self.kinetic))
 
+    @_columns
     def to_table(self) -> dict[str, Any]:
         """Columns: the energies, the works, the balance and its relative size."""
         return {"kinetic": self.kinetic, "potential": self.potential,
@@ -601,6 +663,7 @@ class Trajectory:
         return self._fgc
 
     # ----------------------------------------------------------------- table
+    @_columns
     def to_table(self) -> dict[str, Any]:
         """Columns: step (and time), joint variables (and their rates), quality, mobility."""
         cols: dict[str, Any] = {"step": np.arange(self.nsteps)}
@@ -770,6 +833,7 @@ class Forces:
         out[self.element_skipped[:, i]] = np.nan
         return out
 
+    @_columns
     def to_table(self) -> dict[str, Any]:
         """Columns: step (and time), drive forces, the reactions of every joint (joint frame),
         element forces, energies and powers."""
@@ -917,6 +981,7 @@ class EquationsOfMotion:
         (f,; all coordinates): M psi'' + c - Q (11.14)."""
         return self.M @ np.asarray(accels, float) + self.c - self.Q
 
+    @_columns
     def to_table(self) -> dict[str, Any]:
         """Columns: coordinate, specified, the rows of M by column coordinate, c and Q."""
         cols: dict[str, Any] = {"coordinate": list(self.coords),
@@ -995,6 +1060,55 @@ class Linearization:
             return X[idx[part]]
         return X[np.ix_(idx[part[0]], idx[part[1]])]
 
+    def in_coordinates(self, names: Sequence[str]) -> Linearization:
+        """The same linearization over the coordinates the user names instead of the FGCs
+        the elimination chose (the crank's angle, not the coupler's): ``names``, one
+        joint variable (``"joint"`` or ``"joint.var"``) per FGC, in the order of the
+        FGCs they replace; the SGCs stay.  With J = d psi / d psi' (the named
+        coordinates' first geometric derivatives ``phi``, inverted): M' = J^T M J,
+        D' = J^T D J, F' = J^T F, K' = J^T K J, the derivatives ``phi``, ``points``,
+        ``bodies`` and ``inputs`` carried over.  K' is exact where the FGCs' generalized
+        forces vanish (an equilibrium, at rest); elsewhere the change of coordinates
+        adds second-order terms, and it is refused.  :func:`openimp.modes` of the
+        result gives frequencies (the same) and mode shapes per unit of the named
+        coordinates."""
+        free = self.free
+        names = [str(n) for n in names]
+        if len(names) != free.size:
+            raise InputError(f"in_coordinates: give one coordinate per FGC ({free.size}: "
+                             f"{', '.join(self.coords[i] for i in free)}), got {len(names)}")
+        sysm = self.system
+        try:
+            rows = [sysm.var_index(n) for n in names]
+        except (KeyError, ValueError, InputError) as exc:
+            raise InputError(f"in_coordinates: {exc}") from None
+        f = len(self.coords)
+        T = np.eye(f)
+        T[free] = self.phi[rows]  # d(named)/d(psi)
+        if np.linalg.cond(T) > 1e12:
+            raise InputError(f"in_coordinates: {', '.join(names)} do not determine the "
+                             "FGCs at this posture (a dependent set, or a singular posture)")
+        scale = max(1.0, float(np.max(np.abs(self.F))) if f else 1.0)
+        if np.any(self.rates) or np.any(self.accels) or \
+                np.max(np.abs(self.F[free]), initial=0.0) > 1e-9 * scale:
+            raise InputError("in_coordinates: the set point is not an equilibrium at rest (its "
+                             "FGCs' generalized forces or rates are not 0): the change of "
+                             "coordinates would add second-order terms; linearize at an "
+                             "equilibrium (openimp.equilibrium)")
+        J = np.linalg.inv(T)  # d(psi)/d(psi')
+        coords = list(self.coords)
+        for i, n in zip(free, names, strict=True):
+            coords[i] = sysm.var_names[sysm.var_index(n)]
+        return Linearization(
+            sysm, coords, self.specified.copy(), J.T @ self.M @ J, J.T @ self.D @ J,
+            J.T @ self.K @ J, J.T @ self.F, self.phi @ J, self.q.copy(), T @ self.rates,
+            T @ self.accels, self.t, {k: v @ J for k, v in self.points.items()},
+            {k: J.T @ v for k, v in self.inputs.items()},
+            np.einsum("bfs,fg->bgs", self.bodies, J), self.rank,
+            [*self.messages, f"in the coordinates {', '.join(coords[i] for i in free)} "
+             "(in_coordinates)"])
+
+    @_columns
     def to_table(self) -> dict[str, Any]:
         """Columns: coordinate, specified, then the rows of M, D and K by column coordinate
         and F."""
@@ -1045,6 +1159,7 @@ class Modes:
         """Number of modes."""
         return len(self.kind)
 
+    @_columns
     def to_table(self) -> dict[str, Any]:
         """Columns: mode, kind, natural frequency (rad/s and Hz), damping ratio, damped
         frequency, time constant, unstable, real and imaginary parts of lambda."""
@@ -1134,6 +1249,7 @@ class FrequencyResponse:
         """Phase of H in degrees (nw, nout), unwrapped along w."""
         return np.degrees(np.unwrap(np.angle(self.H), axis=0))
 
+    @_columns
     def to_table(self) -> dict[str, Any]:
         """Columns: w (rad/s), then magnitude and phase (degrees) of every output."""
         cols: dict[str, Any] = {"w": self.w.copy()}
@@ -1162,6 +1278,7 @@ class StateSpace:
     inputs: list[tuple[str, str]]
     outputs: list[tuple[str, str]]
 
+    @_columns
     def to_table(self) -> dict[str, Any]:
         """Columns: the rows of [A B; C D] by state and input."""
         top = np.hstack([self.A, self.B])
@@ -1203,6 +1320,7 @@ class ModeMap:
         """Number of postures."""
         return int(self.q.shape[0])
 
+    @_columns
     def to_table(self) -> dict[str, Any]:
         """Columns: step, then the frequency (rad/s) and damping ratio of every mode."""
         cols: dict[str, Any] = {"step": np.arange(self.nsteps)}
@@ -1309,6 +1427,7 @@ class Equilibrium:
         """A joint variable at the equilibrium (model units, radians for angles)."""
         return float(self.q[self.system.var_index(key)])
 
+    @_columns
     def to_table(self) -> dict[str, Any]:
         """Columns per generalized coordinate: name, specified, value, residual
         generalized force, holding force (SGCs; NaN for FGCs)."""
@@ -1367,6 +1486,7 @@ class EquilibriumPath:
     def stability(self) -> list[str]:
         return [e.stability for e in self.steps]
 
+    @_columns
     def to_table(self) -> dict[str, Any]:
         """Columns: the parameter, every joint variable, the holding force of every SGC,
         the smallest stiffness eigenvalue, stability, search steps."""

@@ -27,6 +27,7 @@ kinematic kernels keep their signatures and their cache.
 
 from __future__ import annotations
 
+import logging
 import math
 from collections import namedtuple
 from collections.abc import Mapping
@@ -618,10 +619,14 @@ def read_only(P: tuple[np.ndarray, ...]) -> tuple[np.ndarray, ...]:
     return P
 
 
-def compile_model(model: Any) -> System:
+def compile_model(model: Any, log: bool = True) -> System:
     """Check ``model`` (a :class:`~openimp.model.Model`) and build its :class:`System`.
 
-    See the module docstring.
+    See the module docstring.  What the compile notices and goes on with (a body
+    whose name is one letter from another's, an inertia no rigid body has) is in
+    :attr:`System.warnings` and, with ``log``, logged as warnings of the ``openimp``
+    logger (stderr by default; ``logging.getLogger("openimp").setLevel(logging.ERROR)``
+    silences them).  An IMP deck says them located at its statements instead.
     """
     if not model.joints:
         raise InputError(f"model {model.name!r} has no joints; add joints before compiling")
@@ -735,6 +740,14 @@ def compile_model(model: Any) -> System:
     sign0.setflags(write=False)
     dyn, elements, laws, warnings = _dynamic_group(model, bodies, bidx, g, Tb, Ls, q0a,
                                                    var_kinds, list(model.joints), jq0)
+    for b, j, o, ojs in _topology.misspelt_bodies(
+            [(x.name, x.body1, x.body2) for x in jlist], model.ground):
+        warnings.insert(0, f"body {b!r} appears only in joint {j!r} and its name is one "
+                           f"letter from body {o!r} (joint {', '.join(map(repr, ojs))}): a "
+                           "misspelt name makes a new body; give one body one name")
+    if log:
+        for w in warnings:
+            logging.getLogger("openimp").warning("model %r: %s", model.name, w)
     YP = read_only(pack(DYN_FIELDS, dyn))
     return System(
         name=model.name,

@@ -397,3 +397,43 @@ def book_reduction(
             loops[i, k] = a[pivot_row[k], c]
     reference_rows = np.flatnonzero(~used).astype(np.int64)
     return loops, paths, chords, reference_rows
+
+
+def one_edit(a: str, b: str) -> bool:
+    """True when ``b`` is ``a`` with one character inserted, deleted or replaced by a
+    letter (case-insensitive); names of three characters or fewer, and names that differ
+    in a digit (``LINK1``, ``LINK2``), never count: those are numbered on purpose."""
+    a, b = a.upper(), b.upper()
+    if a == b or min(len(a), len(b)) < 3 or abs(len(a) - len(b)) > 1:
+        return False
+    if len(a) == len(b):
+        diff = [(x, y) for x, y in zip(a, b, strict=True) if x != y]
+        return len(diff) == 1 and not (diff[0][0].isdigit() or diff[0][1].isdigit())
+    short, long_ = (a, b) if len(a) < len(b) else (b, a)
+    for i, ch in enumerate(long_):
+        if long_[:i] + long_[i + 1:] == short:
+            return not ch.isdigit()
+    return False
+
+
+def misspelt_bodies(joints: Sequence[tuple[str, str, str]], ground: str
+                    ) -> list[tuple[str, str, str, list[str]]]:
+    """Bodies that look like a misspelling of another: a body (not ``ground``) named in
+    one joint only whose name is :func:`one_edit` from another body's.  ``joints``: (name,
+    body1, body2) each.  Returns (body, its joint, the other body, the other's joints)
+    for each, in the order of the joints."""
+    where: dict[str, list[str]] = {}
+    for name, b1, b2 in joints:
+        for b in (b1, b2):
+            where.setdefault(b, [])
+            if name not in where[b]:
+                where[b].append(name)
+    out: list[tuple[str, str, str, list[str]]] = []
+    for b, js in where.items():
+        if b == ground or len(js) != 1:
+            continue
+        for o, ojs in where.items():
+            if o != b and one_edit(b, o) and not any(x[0] == o and x[2] == b for x in out):
+                out.append((b, js[0], o, ojs))
+                break
+    return out

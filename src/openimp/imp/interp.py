@@ -54,6 +54,7 @@ from openimp.massprops import mass_value
 from openimp.model import Model
 from openimp.spatial import inverse as _rigid_inverse
 from openimp.system import compile_model
+from openimp.topology import misspelt_bodies
 
 __all__ = [
     "DeckError",
@@ -1230,12 +1231,43 @@ class Interpreter:
                              "final, minstep, printstep before it (IMP interrupts the run "
                              "without it); give DATA TIME, or cancel dynamic mode with DELETE "
                              "DYNAMICS")
+        self._check_joints()
         spec = RunSpec(len(self.runs) + 1, st.snapshot(), stmt.where,
                        stmt.keyword == "EXECUTE HOLD", stmt, st.mode)
         self.runs.append(spec)
         self.events.append(("run", spec))
         if st.find is None:
             st.kinematic = True
+
+    def _check_joints(self) -> None:
+        """At EXECUTE, what a new user trips over, each warned about once, located: a joint
+        with no placement on a link (no DATA <joint> nor DATA LINK statement: its frame
+        there would be the link's own frame), and a link named in one joint only whose
+        name is one letter from another link's (a misspelling makes a new link)."""
+        st = self.state
+        for name, jd in st.joints.items():
+            missing = [lk for lk, L in ((jd.link1, jd.local1), (jd.link2, jd.local2))
+                       if L is None]
+            key = ("unplaced", name, tuple(missing))
+            if not missing or key in self._warned:
+                continue
+            self._warned.add(key)
+            form = (f"DATA {jd.keyword} ({name}) = ... or " if IMP_JOINTS[jd.keyword].data_form
+                    else "")
+            self.warn(f"{jd.keyword} joint {name} is not placed on link(s) "
+                      f"{', '.join(missing)}: no DATA statement gives its frame there, so the "
+                      "link's own frame is used, which is rarely what is meant; place it with "
+                      f"{form}DATA LINK (link, {name}) = ...", jd.where)
+        triples = [(n, jd.link1, jd.link2) for n, jd in st.joints.items()]
+        for b, j, o, ojs in misspelt_bodies(triples, st.ground):
+            key = ("misspelt", b, o)
+            if key in self._warned:
+                continue
+            self._warned.add(key)
+            other = st.joints[ojs[0]].where
+            self.warn(f"link {b} is named in joint {j} only, and its name is one letter from "
+                      f"link {o} (joint {ojs[0]} at {other[0]}:{other[1]}): a misspelt link "
+                      "name makes a new link; give one link one name", st.joints[j].where)
 
     # ------------------------------------------------------------------ DELETE
     def _delete_joint(self, name: str) -> None:
@@ -1514,7 +1546,7 @@ def compile_built(built: Built, state: State, where: Where) -> Any:
     import re
 
     try:
-        return compile_model(built.model)
+        return compile_model(built.model, log=False)  # the deck says them located
     except InputError as exc:
         msg = str(exc)
         m = re.search(r"joint '([^']+)'", msg)

@@ -10,6 +10,7 @@ elimination.  :func:`sweep` is the Python entry point; it returns a
 
 from __future__ import annotations
 
+import logging
 import math
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any, NamedTuple, Protocol
@@ -504,6 +505,7 @@ def sweep(
     at_limit: str = "stop",
     progress: Callable[[float, float], None] | None = None,
     kernel: StepKernel | None = None,
+    warn: bool = True,
     **deprecated_names: Any,
 ) -> Trajectory:
     """Move ``system`` through the driver values and solve every posture.
@@ -549,6 +551,11 @@ def sweep(
     ``kernel`` (:class:`StepKernel`), for analyses built on the sweep: solves
     the steps in place of :func:`sweep_steps` and does its own work at each
     (rates are then always computed: zero where none are given).
+
+    A sweep that stops before its last step (a limit of travel, a posture that
+    cannot be reached) returns the steps solved before it and, with ``warn``
+    (default), logs why as a warning of the ``openimp`` logger, so that an
+    incomplete result is never taken for a whole one in silence.
     """
     if deprecated_names:  # start=, the old name of q
         old = renamed("sweep", {"q": q, **deprecated_names} if q is not None
@@ -613,6 +620,10 @@ def sweep(
         res.set_rates(out.QD[:done], out.QDD[:done], out.cons[:done])
     if tarr is not None:
         res.time = tarr[:done]
+    if warn and msg and not run.interrupted:  # an incomplete result is said, not only kept
+        logging.getLogger("openimp").warning(
+            "sweep: %s (the result keeps the %d of %d steps solved before it: "
+            "res.complete is False, res.message says why)", msg, done, nsteps)
     return res
 
 

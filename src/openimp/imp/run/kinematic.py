@@ -227,7 +227,7 @@ def solve(prep: Prepared, times: np.ndarray, start: np.ndarray | None,
                 res = sweep(system, {c: motions.p[sl, j] for j, c in enumerate(names)},
                             rates={c: motions.v[sl, j] for j, c in enumerate(names)},
                             accels={c: motions.a[sl, j] for j, c in enumerate(names)},
-                            q=cur, progress=told, **opts)
+                            q=cur, progress=told, warn=False, **opts)
             except InputError as exc:
                 message = _stop_message(prep, times, k, motions, f"{exc}")
                 break
@@ -331,7 +331,7 @@ def _start_values(system: Any, cur: np.ndarray | None, drv_cols: list[int], name
     q0 = system.modeling_q if cur is None else cur
     try:
         pre = sweep(system, {c: [q0[drv_cols[j]]] for j, c in enumerate(names)},
-                    rates={c: [0.0] for c in names}, q=cur, **opts)
+                    rates={c: [0.0] for c in names}, q=cur, warn=False, **opts)
     except InputError:
         return None
     return Solution(pre, times[:1])
@@ -379,7 +379,7 @@ def _structure(prep: Prepared, times: np.ndarray, cur: np.ndarray | None) -> Sol
     tol = st.tolerance("POSITION")[0] if "POSITION" in st.zero else 1e-10
     ptol = st.tolerance("SYSTEM")[0] if "SYSTEM" in st.zero else 1e-10
     res = sweep(prep.system, {}, rates={}, steps=len(times), tol=tol, pivot_tol=ptol,
-                            hold_free=True, q=cur)
+                            hold_free=True, q=cur, warn=False)
     return Solution(res, times[:res.nsteps], res.message)
 
 

@@ -412,14 +412,22 @@ def dynamic_tables(sol: Solution, it: Item) -> list[Table]:
     return out
 
 
+#: an energy below this fraction of the run's energy scale prints as 0 (round-off)
+NOISE = 1e-12
+
+
 def energy_line(sol: Solution, k: int) -> str | None:
     """The PRINT HEADING line of the energy audit at step ``k`` of a dynamic run."""
     res = sol.response
     if res is None or res.energy is None or k >= len(res.energy.kinetic):
         return None
     e = res.energy
-    parts = [f"{lab.lower()} {float(getattr(e, attr)[k]):.6g}" for lab, attr in ENERGY_COLUMNS]
-    return "Energy: " + ", ".join(parts) + "."
+    floor = NOISE * e.scale  # round-off of a sum of energies is no datum
+    parts = []
+    for lab, attr in ENERGY_COLUMNS:
+        v = float(getattr(e, attr)[k])
+        parts.append(f"{lab.lower()} {0.0 if abs(v) <= floor else v:.6g}")
+    return "Energy (force x length): " + ", ".join(parts) + "."
 
 
 def integration_lines(sol: Solution) -> list[str]:
@@ -446,11 +454,12 @@ def _magnitude(v: Any) -> float:
 
 
 def _f4(x: float) -> str:
-    return "????" if not math.isfinite(x) else f"{x:.4f}"
+    return "????" if not math.isfinite(x) else f"{x:.4f}".replace("-0.0000", "0.0000")
 
 
 def _f3(x: float) -> str:
-    return "????" if not math.isfinite(x) else f"{x:.3f}"
+    """Three decimals; a round-off below them prints 0.000, not -0.000."""
+    return "????" if not math.isfinite(x) else f"{x:.3f}".replace("-0.000", "0.000")
 
 
 def print_step(prep: Prepared, sol: Solution, k: int, tables: dict[tuple[str, str, str], Any],
@@ -462,7 +471,9 @@ def print_step(prep: Prepared, sol: Solution, k: int, tables: dict[tuple[str, st
         out.append(sol.search[k])
     if heading:
         out.append("The Generalized Coordinates are:")
-        out.append("Joint Set by Position Velocity Acceleration")
+        out.append("Joint Set by Position Velocity Acceleration" + (
+            "" if prep.spec.state.imp_listing else  # IMP printed no units
+            " [deg, rad/s, rad/s^2 or length, length/s, length/s^2]"))
         for d in prep.drivers:
             _ij, p, v, a = _joint_vars(prep, sol.rows(k), d.joint)
             pos = p[0, d.var]
