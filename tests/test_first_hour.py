@@ -196,3 +196,24 @@ def test_stiffness_and_modes_in_the_coordinates_the_user_names() -> None:
     assert w_lin == pytest.approx(np.sqrt(d2 / (mass * float(v @ v))), rel=1e-5)
     with pytest.raises(openimp.InputError, match="one coordinate per FGC"):
         lin.in_coordinates(["A", "B"])
+
+
+def test_to_table_prints_as_a_table() -> None:
+    """Every to_table() is still a dict of columns (pandas.DataFrame takes it) and prints
+    as an aligned table: a header, one line per row, long tables cut in the middle."""
+    import numpy as np
+
+    from openimp.results import SHOW_ROWS, Columns
+
+    t = Columns({"mode": np.arange(1, 3), "kind": ["oscillation", "overdamped"],
+                 "frequency": np.array([2.712461, np.nan]), "unstable": np.array([False, True])})
+    lines = str(t).splitlines()
+    assert lines[0].split() == ["mode", "kind", "frequency", "unstable"]
+    assert lines[1].split() == ["1", "oscillation", "2.71246", "False"]
+    assert lines[2].split() == ["2", "overdamped", "nan", "True"]
+    assert len({len(x) for x in lines}) == 1 and repr(t) == str(t)
+    long = Columns({"step": np.arange(100)})
+    out = str(long).splitlines()
+    assert len(out) == 1 + SHOW_ROWS + 1 + 1 and out[-1] == "(100 rows)"
+    assert [x.strip() for x in out].count("...") == 1
+    assert isinstance(long, dict) and list(long) == ["step"]
