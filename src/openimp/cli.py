@@ -9,10 +9,11 @@
 
 ``run`` reads an IMP deck, runs every EXECUTE in order and prints IMP-style
 output (banners, messages, PRINT output per position, LIST listings) on
-stdout; ``--json`` writes every table at full precision in the DESIGN.md
-schema, ``--csv`` one CSV file per table, ``--out`` receives the deck's
-files (STORE, PRINT ON, STORE INPUT), plots and animations; without it the
-deck's files go to the deck's folder and graphics are not rendered.  A
+stdout; ``--json`` writes every table at full precision (the JSON document
+described in docs/imp.md, "Requests and output"), ``--csv`` one CSV file per
+table, ``--out`` receives the deck's files (STORE, PRINT ON, STORE INPUT),
+plots and animations; without it the deck's files go to the deck's folder and
+graphics are not rendered.  A
 file that exists from before the run is not replaced without
 ``--overwrite`` (the JSON and CSV targets, named on the command line, are).
 RECALL INPUT, TABLE and SOLID READ read only inside the deck's folder and

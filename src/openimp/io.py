@@ -1,4 +1,9 @@
-"""Export of results: the JSON schema of DESIGN.md and one CSV file per table.
+"""Export of results: one JSON document of every run and one CSV file per table.
+
+The JSON document, ``{"runs": [{"title", "mode", "tables": [{"request", "item",
+"columns", "units", "rows"}, ...], ...}]}``, is described in docs/imp.md
+("Requests and output"), the CSV files (``run<k>_<request>_<item>.csv``, a
+header ``column [unit]``, undefined values ``nan``) there and in its "Quick start".
 
 The tables (:class:`~openimp.results.Table`) and runs
 (:class:`~openimp.results.Run`) are result containers; IMP-style listings and
@@ -38,13 +43,14 @@ def atomic_write(path: str | os.PathLike[str], text: str | bytes) -> Path:
 
 
 def json_text(runs: Sequence[Run]) -> str:
-    """The DESIGN.md JSON document of ``runs`` (full precision, NaN as null)."""
+    """The JSON document of ``runs`` (full precision, NaN as null; docs/imp.md,
+    "Requests and output")."""
     doc = {"runs": [r.to_dict() for r in runs]}
     return json.dumps(doc, allow_nan=False) + "\n"
 
 
 def write_json(path: str | os.PathLike[str], runs: Sequence[Run]) -> Path:
-    """Write every run's tables in the DESIGN.md JSON schema, full precision."""
+    """Write every run's tables as the JSON document of :func:`json_text`, full precision."""
     return atomic_write(path, json_text(runs))
 
 

@@ -7,7 +7,7 @@ free generalized coordinates; body postures, point positions and body rates
 are recomputed from them on demand by a *tracker* that the analysis hands
 over (:func:`openimp.kinematics.track.tracker`), and kept once computed.  This
 module imports no analysis: results sit at the top of the layers
-(DESIGN.md).
+(docs/architecture.md, Layers).
 """
 
 from __future__ import annotations

@@ -7,8 +7,9 @@ use its upper-left block), Euler-Rodrigues parameters / quaternions ``(..., 4)``
 and Plücker lines ``(..., 6)``.  Angles are in radians and may be arrays; batch
 shapes broadcast against each other.
 
-Conventions (Uicker, Ravani & Sheth 2013, chapter 3, with the printed errors
-corrected as listed in the reference digest, section 9):
+Conventions (Uicker, Ravani & Sheth 2013, chapter 3; where an equation is
+printed wrongly in the book, the function that implements it says so and
+follows the corrected form, e.g. (3.9) in :func:`plucker_from_points`):
 
 * ``T = [[Θ, d], [0, 1]]`` maps body coordinates to the fixed frame (3.25).
 * ``skew(a) @ b == cross(a, b)`` (3.12).
@@ -669,7 +670,8 @@ def plucker_from_points(p1: npt.ArrayLike, p2: npt.ArrayLike) -> FloatArray:
     Direction ``Ω̂ = w1 p2 - w2 p1`` (= p2 - p1 for w = 1) and moment
     ``Ω = p1 × p2`` (= r × Ω̂).  The book's (3.9) prints the direction with
     the opposite sign, inconsistent with (3.7) and (3.11); this is the
-    corrected form (digest §9 item 4).  A point at infinity (w = 0) is a
+    corrected form (with the printed sign, (3.10) would put the line through
+    (1,0,0) and (1,1,0) at x = -1).  A point at infinity (w = 0) is a
     direction.  Raises :class:`InputError` when the points coincide.
     """
     a, b = _f(p1), _f(p2)

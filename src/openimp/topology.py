@@ -345,7 +345,7 @@ def analyze(
 def book_reduction(
     incidence: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """The book's unimodular row reduction of [Γ | I] (§2.3-2.4, digest §2.5).
+    """The book's unimodular row reduction of [Γ | I] (chapter 2: L, 2.8-2.13; P, 2.14-2.15).
 
     The Γ columns are scanned left to right; in each column the pivot is the
     lowest-index not-yet-used row with a nonzero entry.  That row is made +1 at

@@ -14,10 +14,11 @@ distance (``DATA DRAW``).  From it:
   against one of its columns, the first (time or step) by default (PLOT).
 
 Screen coordinates are x to the right and y up.  The standard views map global
-X, Y, Z on the screen as the table of reference 8.7 says (FRONT: X right, Y up,
-Z out of the screen; TOP: X right, Y out, Z down; ISOMETRIC: X down-right, Y up,
-Z down-left ...).  A view may also be given as ``(eye, up)``: the eye position
-and an up vector in global coordinates, looking at the centre of the scene.
+X, Y, Z on the screen as the table of docs/imp-language.md §8.7 says (FRONT: X
+right, Y up, Z out of the screen; TOP: X right, Y out, Z down; ISOMETRIC: X
+down-right, Y up, Z down-left ...).  A view may also be given as ``(eye,
+up)``: the eye position and an up vector in global coordinates, looking at the
+centre of the scene.
 Pictures keep an equal aspect ratio; animations use one fixed frame (the
 bounding box over all steps) so the picture does not jump.  IMP drew on a black
 screen; these pictures are drawn on white, so IMP's WHITE (the default colour)

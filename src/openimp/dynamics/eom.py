@@ -15,10 +15,11 @@ ones, FGC, that the elimination leaves), with
 :func:`eom` is the compiled stage the later analyses (equilibrium,
 linearisation, time response) call; :func:`equations` the Python entry, whose result is an
 :class:`~openimp.results.EquationsOfMotion`.
-Partitioned [F | S] (section 5.6 of the digest), the F rows give the free
-accelerations for given SGC accelerations and the S rows the drive forces
-(11.14).  :data:`SINGULAR_MASS` and :func:`mass_check` are the one test of a singular
-mass matrix and its message.
+Partitioned [F | S] (as the book partitions the linearized equations,
+11.12-11.14), the F rows give the free accelerations for given SGC
+accelerations and the S rows the drive forces (11.14).  :data:`SINGULAR_MASS`
+and :func:`mass_check` are the one test of a singular mass matrix and its
+message.
 """
 
 from __future__ import annotations

@@ -10,11 +10,12 @@
 The search (:class:`_Search`) is the book's Newton-Raphson on the static
 residual, K_FF dpsi_F = F_F (12.3, 12.4), with
 
-* the energy test (12.6-12.9, with the sign of digest §2.5): a Newton step
-  is taken only when the loads do positive work along it (F . dpsi > 0, the
-  potential energy falls); otherwise the step follows the load (steepest
-  descent, 12.9) over the length where the stiffness says the energy stops
-  falling;
+* the energy test (12.6-12.9, with the sign corrected: F of 12.1 is -dV/dpsi,
+  so the book's printed 12.7-12.9 would reject the Newton step at every stable
+  posture; docs/statics.md, "Energy test"): a Newton step is taken only when
+  the loads do positive work along it (F . dpsi > 0, the potential energy
+  falls); otherwise the step follows the load (steepest descent, 12.9) over
+  the length where the stiffness says the energy stops falling;
 * where K_FF is indefinite (a saddle or a maximum nearby) and a stable
   posture is sought, the Newton step with every eigenvalue of K_FF taken by
   its magnitude: a step that always lowers the energy and is Newton's near a

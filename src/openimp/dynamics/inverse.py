@@ -202,9 +202,10 @@ def reactions(KP: tuple, DP: tuple, ZP: tuple, rank: int, itol: float, R: np.nda
     goes through the kept elimination (17.17); what the dependent rows leave
     (17.18) above ``itol`` makes the component statically indeterminate: NaN.
     Otherwise, with W_{b,Delta} = P(b,Delta) D_Delta + sum_h P(b,h) D_h
-    phi'_{h,Delta} (17.21 with the direct term, digest D1), (17.20) regroups
-    as F = sum_a phi'_{a,Delta} gvar_a + D_Delta . Wsum_Delta
-    (:func:`transmitted`).
+    phi'_{h,Delta} (17.21 with the direct term P(b,Delta) D_Delta, which the
+    book's printed 17.21 does not show: without it an open chain would carry no
+    reaction), (17.20) regroups as
+    F = sum_a phi'_{a,Delta} gvar_a + D_Delta . Wsum_Delta (:func:`transmitted`).
 
     The replay is linear in C': it is done once per step for the 6 unit rows
     of every loop (z.Xr, z.Yr), and each component combines them with the

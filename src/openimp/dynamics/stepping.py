@@ -16,11 +16,11 @@ Two integrators share the stage (:func:`close_stage`, :func:`evaluate`):
 * ``rk``: Dormand-Prince 5(4) (embedded pair, error estimate of order 4,
   FSAL), error per step controlled on x_F and v_F against ``atol + rtol |y|``;
 * ``book``: the book's locally linearized exact-exponential step (14.11-14.30,
-  section 4.4 of the digest): M, D, K of ch 11 frozen at the step start, the
-  SGC motion over the step as a quadratic in time, the linear system solved
-  exactly by the exponential of the augmented matrix (Van Loan; no Jordan
-  form), the loops closed at the end, and the step controlled by the force
-  error eps = M_FF (psi''_F - v'_F) of section 14.5 (IMP's ZERO (FORCE)).
+  the algorithm of the book's section 14.4): M, D, K of ch 11 frozen at the
+  step start, the SGC motion over the step as a quadratic in time, the linear
+  system solved exactly by the exponential of the augmented matrix (Van Loan;
+  no Jordan form), the loops closed at the end, and the step controlled by the
+  force error eps = M_FF (psi''_F - v'_F) of section 14.5 (IMP's ZERO (FORCE)).
 
 Works are integrated with the motion: of the drives (SGC forces times SGC
 rates), of the loads that have no potential, and the energy the dampers take

@@ -3,8 +3,9 @@
 :func:`parse` (or :func:`parse_file`, :func:`parse_text`) turns a deck into a
 list of :class:`Statement` objects; VALUE statements carry an
 :class:`Expression` that evaluates against an environment of VALUEs and a
-resolver callback for model quantities (reference: the IMP user manual;
-``docs/imp.md`` says where openimp departs from it).
+resolver callback for model quantities (reference: the IMP user manual, as
+``docs/imp-language.md`` sums it up; ``docs/imp.md`` says where openimp departs
+from it).
 """
 
 from openimp.imp.expr import (

@@ -2,15 +2,16 @@
 
 At EXECUTE the interpreter builds a :class:`~openimp.model.Model` from what the
 deck defined (:func:`openimp.imp.interp.build_model`); this module adds what a
-force analysis needs (reference §7.3, §8.4, §8.5, §13):
+force analysis needs (docs/imp-language.md §7.3, §8.4, §8.5, §13; the mass
+data: docs/imp.md, "Mass data"):
 
 * ``DATA MASS (link, joint|LINK) = m; u,v,w``: a point mass at its centre, given
   in the joint frame on that link (or the body frame); ``DATA INERTIA (link,
   joint|LINK) = Ixx, Iyy, Izz, Ixy, Ixz, Iyz``: the second moments about the
   *origin* of the named frame, on its axes, products ``+integral(x y dm)``.  It
   replaces the point-mass second moments of DATA MASS and keeps the mass and
-  the first moments (reference §2.4, settled).  Both were multiplied by
-  UNIT (MASS) when read (default exactly 1/386.088: lbm with lbf, in, s);
+  the first moments (docs/imp-language.md §2.4, settled).  Both were
+  multiplied by UNIT (MASS) when read (default exactly 1/386.088: lbm with lbf, in, s);
 * ``DATA GRAVITY``: the gravity vector, global axes;
 * ``SPRING``, ``DAMPER``, ``FORCE``, ``TORQUE`` elements with their DATA
   statements; an element without data is deleted with IMP's message;
@@ -53,7 +54,8 @@ from openimp.model import Model
 __all__ = ["UNIT_MASS_DEFAULT", "DynamicData", "ValueLaws", "add_dynamic_data",
            "inertia_tensor", "joint_data"]
 
-#: IMP's default UNIT (MASS): one lbm in lbf s^2/in, exactly 1/386.088 (reference §2.4)
+#: IMP's default UNIT (MASS): one lbm in lbf s^2/in, exactly 1/386.088
+#: (docs/imp-language.md §2.4)
 UNIT_MASS_DEFAULT = 1.0 / 386.088
 
 Where = tuple[str, int]

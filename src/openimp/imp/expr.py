@@ -1,4 +1,4 @@
-"""VALUE expressions of the IMP language (reference §5): parser and safe evaluator.
+"""VALUE expressions of the IMP language (docs/imp-language.md §5): parser and safe evaluator.
 
 An expression is parsed into a small tree of nodes (never Python code: nothing
 here calls ``eval`` or ``exec``) and evaluated against
@@ -21,9 +21,9 @@ undefined derivatives.  "Undefined" is ``nan``; with ``strict=True`` the
 evaluator raises :class:`~openimp.errors.InputError` instead, naming the VALUE
 and its ``file:line``.
 
-Operator priority, highest first (reference §5): function references, ``@``
-(power, via logarithms, base > 0), ``/``, ``*``, ``-``, ``+``; every level
-runs left to right.  The only unary minus is the sign of a bare number.
+Operator priority, highest first (docs/imp-language.md §5): function
+references, ``@`` (power, via logarithms, base > 0), ``/``, ``*``, ``-``,
+``+``; every level runs left to right.  The only unary minus is the sign of a bare number.
 """
 
 from __future__ import annotations
@@ -78,7 +78,7 @@ Resolver = Callable[[str, str | None, int], float | None]
 NAN = math.nan
 _UNDEF: Jet = (NAN, NAN, NAN)
 
-#: The function keywords of reference §5, keyed by their 4-letter significant form.
+#: The function keywords of docs/imp-language.md §5, keyed by their 4-letter significant form.
 FUNCTIONS: dict[str, str] = {
     keyword_key(k): k
     for k in (
@@ -96,7 +96,7 @@ MAX_CHAIN = limits.MAX_VALUE_CHAIN  # VALUEs using VALUEs using VALUEs ...
 
 
 class SimulationStop(OpenIMPError):  # noqa: N818 - a signal, not an error
-    """Raised when an expression evaluates ``RETURN`` or ``END`` (reference §5).
+    """Raised when an expression evaluates ``RETURN`` or ``END`` (docs/imp-language.md §5).
 
     ``kind`` is ``'RETURN'`` (stop the run, back to the interpreter) or
     ``'END'`` (leave IMP); ``where`` is ``(file, line)`` of the VALUE.
@@ -468,7 +468,7 @@ def parse_expression(
 
 @dataclass(frozen=True)
 class FourierTable:
-    """Tabulated function of reference §5 ``TABLE(x): filename``.
+    """Tabulated function of docs/imp-language.md §5 ``TABLE(x): filename``.
 
     The ordinates are taken equally spaced over one period ``P = xmax - xmin``
     at ``x_k = xmin + k P / N`` (k = 0 .. N-1; the last ordinate is *not* at

@@ -1,10 +1,10 @@
 """The IMP interpreter: statements -> a model, its inputs, requests and runs.
 
 :func:`load` reads a deck (:func:`openimp.imp.parse_file`), carries out every
-statement in order as IMP did (reference chapters 3-8: definitions, DATA,
-requests, control, DELETE and graphics statements) and records, at every
-``EXECUTE``, a snapshot of the model as it stands then.  The result is a
-:class:`Deck`:
+statement in order as IMP did (the manual's chapters 3-8, docs/imp-language.md
+§7-12: definitions, DATA, requests, control, DELETE and graphics statements)
+and records, at every ``EXECUTE``, a snapshot of the model as it stands then.
+The result is a :class:`Deck`:
 
 * ``deck.model`` - the :class:`~openimp.model.Model` at the first EXECUTE (or at
   the end of the deck when it has none);
@@ -71,7 +71,7 @@ __all__ = [
 
 Where = tuple[str, int]
 
-#: IMP's tolerances (reference §10) and their defaults: (value, count).
+#: IMP's tolerances (docs/imp-language.md §10) and their defaults: (value, count).
 ZERO_DEFAULTS: dict[str, tuple[float, float | None]] = {
     "DATA": (1e-4, None), "POSITION": (1e-4, 20), "EQUILIB": (1e-3, 25),
     "SYSTEM": (1e-7, None), "INERTIA": (1e-5, None), "SPRING": (1e-5, None),

@@ -1,8 +1,8 @@
 """IMP's 21 joint keywords mapped onto the openimp joint catalogue.
 
-IMP names a joint by a keyword (reference §7.2) and places its two frames by
-the keyword's own DATA form or by two ``DATA LINK`` statements (§8.1).  This
-module holds, for every keyword:
+IMP names a joint by a keyword (docs/imp-language.md §7.2) and places its two
+frames by the keyword's own DATA form or by two ``DATA LINK`` statements
+(docs/imp-language.md §8.1).  This module holds, for every keyword:
 
 * the openimp catalogue kind it becomes and the fixed re-labelling of the axes
   (an IMP ``XPIN`` turns about its *u* axis, an openimp revolute about *w*, so
@@ -12,8 +12,8 @@ module holds, for every keyword:
   model units), how each maps onto an openimp variable for driving
   (:attr:`ImpJoint.drive`), and the conversion of openimp variables and their
   rates to IMP's (:func:`imp_variables`): Cardan angles x-y'-z'' for SPHERE and
-  OPEN (reference §7.2, confirmed by ch9), the polar form of FLAT, the single
-  variable of GEAR, RACK and BEVEL.
+  OPEN (docs/imp-language.md §7.2, confirmed by ch9), the polar form of FLAT,
+  the single variable of GEAR, RACK and BEVEL.
 """
 
 from __future__ import annotations
@@ -108,7 +108,7 @@ class ImpJoint:
 
 _A, _L = "angle", "length"
 
-#: Every IMP joint keyword (reference §7.2).
+#: Every IMP joint keyword (docs/imp-language.md §7.2).
 IMP_JOINTS: dict[str, ImpJoint] = {
     "RIGID": ImpJoint("RIGID", "rigid", (), _ID, ()),
     "XPIN": ImpJoint("XPIN", "revolute", (_A,), _PERM_X, ((0, 1.0),)),
@@ -189,8 +189,8 @@ def _frame(origin: Vec, axes: dict[str, Vec]) -> np.ndarray:
 def frame_w(p1: Vec, p2: Vec | None, p3: Vec | None, what: str) -> np.ndarray:
     """IMP's three-point frame: origin ``p1``, +w toward ``p2``, +u in the
     half-plane of ``p3`` (squared off).  A missing ``p2``/``p3`` is the global
-    origin (reference §8.1); a ``p3`` on the w axis falls back to global x
-    (or y)."""
+    origin (docs/imp-language.md §8.1); a ``p3`` on the w axis falls back to
+    global x (or y)."""
     o = np.asarray(p1, float)
     w = _unit((np.zeros(3) if p2 is None else np.asarray(p2, float)) - o)
     if w is None:
@@ -219,7 +219,7 @@ def placement_frames(keyword: str, points: Sequence[Vec | None],
     """The two IMP joint frames (global 4x4) of a ``DATA <keyword>`` statement.
 
     ``points`` are the statement's point slots in global coordinates, ``None``
-    for a missing one.  The rules are those of reference §8.1; for X/Y/ZPIN a
+    for a missing one.  The rules are those of docs/imp-language.md §8.1; for X/Y/ZPIN a
     missing second or third point (including a zero-filled ``0,0,0``, as ch9
     requires) leaves that axis parallel to the global one.
     """

@@ -1,4 +1,4 @@
-"""Lexer of the IMP problem-oriented language (reference §3).
+"""Lexer of the IMP problem-oriented language (docs/imp-language.md §3).
 
 Three layers, each usable on its own:
 
@@ -41,10 +41,10 @@ __all__ = [
 ]
 
 #: Useful columns of a line.  IMP read 80-column card images and ignored
-#: columns 73-80 (the card sequence field); reference §3 "Lines".
+#: columns 73-80 (the card sequence field); docs/imp-language.md §3 "Lines".
 COLUMNS = 72
 
-#: The non-blank separators of reference §3 (``:`` added, as the manual uses it).
+#: The non-blank separators of docs/imp-language.md §3 (``:`` added, as the manual uses it).
 SEPARATORS = frozenset(",+;-*(/=@:")
 
 #: Characters read as a blank separator (tabs are expanded to 8-column stops first).
@@ -61,8 +61,8 @@ NUMBER_RE = re.compile(r"(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
 def keyword_key(word: str) -> str:
     """Return the significant form of a keyword: its first 4 letters, upper case.
 
-    IMP matches keywords on their first 4 characters only (reference §3), so
-    ``EXEC``, ``EXECUTE`` and ``execute`` are one keyword.
+    IMP matches keywords on their first 4 characters only (docs/imp-language.md
+    §3), so ``EXEC``, ``EXECUTE`` and ``execute`` are one keyword.
     """
     return word[:4].upper()
 
@@ -124,7 +124,7 @@ def split_statements(
 ) -> Iterator[SourceStatement]:
     """Yield the logical statements of ``lines`` (a text or a sequence of lines).
 
-    Rules (reference §3): only columns 1-``columns`` are read (pass ``None`` to
+    Rules (docs/imp-language.md §3): only columns 1-``columns`` are read (pass ``None`` to
     read whole lines); a ``$`` ends the useful part of a line and continues the
     statement on the next line, joined as if the two lines were one (so ``$``
     may split a word); ``$$`` ends the statement; the text after ``$`` or
@@ -246,7 +246,7 @@ class Token:
 class Scanner:
     """Reads tokens from a :class:`SourceStatement`, one at a time.
 
-    Numbers follow reference §3: digits, an optional point, an optional
+    Numbers follow docs/imp-language.md §3: digits, an optional point, an optional
     exponent; once a number has started, characters up to the next separator
     are skipped (``3.8.0`` reads 3.8) with a warning added to the statement.
     Any character that is neither a letter, digit, separator, blank nor ``)``
@@ -393,7 +393,7 @@ class Item:
 
 
 def reduce_items(tokens: list[Token], stmt: SourceStatement | None = None) -> list[Item]:
-    """Apply the outside-VALUE rules of reference §3 to ``tokens``.
+    """Apply the outside-VALUE rules of docs/imp-language.md §3 to ``tokens``.
 
     All separators are equivalent and ``)`` is ignored; ``+``/``-`` directly in
     front of a number (no blank between) is its sign; two non-blank separators

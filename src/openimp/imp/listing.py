@@ -1,4 +1,4 @@
-"""IMP-style listings (reference 2.2-2.4): run banners, LIST tables, STORE files.
+"""IMP-style listings (docs/imp-language.md §2.2-2.4): run banners, LIST tables, STORE files.
 
 Built from the result containers (:class:`~openimp.results.Table`,
 :class:`~openimp.results.Run`); printed numbers follow IMP's formats.
@@ -33,7 +33,7 @@ def format_listing(t: Table, units: bool = True) -> str:
     """IMP-style listing of a table: header, column titles, one row per step.
 
     Time prints as %.6f (a step number as an integer) and values as %.3f (IMP's
-    LIST format, reference 2.3); values IMP cannot determine print as ????.
+    LIST format, docs/imp-language.md §2.3); values IMP cannot determine print as ????.
     ``units``: the column titles carry their units (``Time (s)``); without them
     they are IMP's (``Time  JVar 1``).
     A frequency response (LIST DYNAMICS) prints every number with 6
@@ -78,7 +78,7 @@ def format_store(runs: Sequence[Run]) -> str:
 
     Each table starts with ``# <request> <item>`` and a column line; rows hold
     full-precision numbers (``%.10g``); undetermined values are written as
-    ``0.000002``, as IMP did (reference §5).
+    ``0.000002``, as IMP did (docs/imp-language.md §5).
     """
     lines: list[str] = []
     for k, run in enumerate(runs, start=1):

@@ -1,4 +1,4 @@
-"""Parser of the IMP problem-oriented language (reference §§3, 5-12).
+"""Parser of the IMP problem-oriented language (docs/imp-language.md §§3, 5-12).
 
 A deck (a file or a text) becomes a list of :class:`Statement` objects, one per
 statement, in order.  Parsing is positional, as in IMP: outside VALUE
@@ -9,8 +9,8 @@ Every statement has a ``kind`` (``DEFINE``, ``VALUE``, ``DATA``, ``REQUEST``,
 ``CONTROL``, ``DELETE``, ``GRAPHICS``), a normalised ``keyword`` (``'ZPIN'``,
 ``'DATA LINK'``, ``'LIST POSITION'``, ``'ZERO POSITION'`` ...), the user
 ``names`` and the ``numbers`` in the order they appear (after implied zeros
-and the trailing zero fill), and ``fields``: the same data under the names the
-reference gives them (see :data:`FIELDS`).
+and the trailing zero fill), and ``fields``: the same data under the names
+docs/imp-language.md gives them (see :data:`FIELDS`).
 
 Malformed statements raise :class:`~openimp.errors.InputError` located at
 ``file:line``; parsing raises nothing else.  Pass ``on_error`` to collect the
@@ -79,15 +79,15 @@ __all__ = [
     "parse_text",
 ]
 
-#: Statement kinds (the six categories of reference §3, with VALUE apart).
+#: Statement kinds (the six categories of docs/imp-language.md §3, with VALUE apart).
 KINDS = ("DEFINE", "VALUE", "DATA", "REQUEST", "CONTROL", "DELETE", "GRAPHICS")
 
-#: IMP's limit on the words and numbers of one statement (reference §3); only warned.
+#: IMP's limit on the words and numbers of one statement (docs/imp-language.md §3); only warned.
 MAX_WORDS = 35
-#: IMP's limit on the names of one list statement (reference §6); only warned.
+#: IMP's limit on the names of one list statement (docs/imp-language.md §6); only warned.
 MAX_NAMES = 33
 
-#: Joint keyword -> number of joint variables (reference §7.2).
+#: Joint keyword -> number of joint variables (docs/imp-language.md §7.2).
 JOINT_DOF: dict[str, int] = {
     "RIGID": 0, "XPIN": 1, "YPIN": 1, "ZPIN": 1, "REVOLUTE": 1, "XSLIDE": 1, "YSLIDE": 1,
     "ZSLIDE": 1, "PRISM": 1, "GEAR": 1, "BEVEL": 1, "RACK": 1, "SCREW": 1, "CAM": 2,
@@ -103,7 +103,7 @@ def _kw(*words: str) -> dict[str, str]:
     return {keyword_key(w): w for w in words}
 
 
-#: The 61 leading keywords (reference §16), keyed by their 4-letter form.
+#: The 61 leading keywords (docs/imp-language.md §16), keyed by their 4-letter form.
 LEADING_KEYWORDS = _kw(
     *JOINT_DOF, "LINK", "GROUND", "SOLID", "SHAPE", "CONTACT", "IMPACT", "POINT", "SPRING",
     "DAMPER", "FORCE", "TORQUE", "VALUE", "DATA", "PRINT", "LIST", "STORE", "PLOT", "REMARK",
@@ -112,7 +112,7 @@ LEADING_KEYWORDS = _kw(
     "SLIDE", "TURN",
 )
 
-#: The 37 second keywords of DATA statements (reference §8).
+#: The 37 second keywords of DATA statements (docs/imp-language.md §8).
 DATA_KEYWORDS = _kw(
     "LINK", "RIGID", "XPIN", "YPIN", "ZPIN", "REVOLUTE", "XSLIDE", "YSLIDE", "ZSLIDE", "PRISM",
     "CYLINDER", "UJOINT", "SPHERE", "GEAR", "BEVEL", "RACK", "SCREW", "CAM", "SLOT", "POINT",
@@ -323,7 +323,7 @@ class Statement:
         written: the same names as the deck spells them (all their characters).
         numbers: the numbers in order of appearance, implied and filled zeros
             included.
-        fields: the data under the reference's names (see :data:`FIELDS`).
+        fields: the data under the names of docs/imp-language.md (see :data:`FIELDS`).
         file, line, end_line: where the statement is (first and last line).
         text: the original source lines of the statement.
         warnings: IMP-style messages, printable as ``*** {warning} ***``.
@@ -682,7 +682,7 @@ def _h_data(ctx: _Ctx, cur: _Cursor) -> None:
         inc = cur.opt_number("increment")
         steps = cur.opt_number("number of steps")
         f["increment"] = 0.0 if inc is None else inc
-        # increment 0 holds the joint, forcing nsteps = 0 (reference §8.6)
+        # increment 0 holds the joint, forcing nsteps = 0 (docs/imp-language.md §8.6)
         f["nsteps"] = 0 if steps is None or f["increment"] == 0.0 else round(steps)
     elif what in ("VELOCITY", "ACCEL"):
         f["joint"] = cur.name("joint name")
@@ -1140,7 +1140,7 @@ def _read_deck(path: str, where: tuple[str, int] | None, what: str,
 
 
 class _Reader:
-    """Reads statements, expanding RECALL INPUT (reference §10).
+    """Reads statements, expanding RECALL INPUT (docs/imp-language.md §10).
 
     Limits: RECALL INPUT nests at most ``MAX_RECALL_DEPTH`` deep, a file never
     recalls itself (directly or through others), and the deck with every

@@ -1,9 +1,9 @@
 """One joint evaluation: Phi, Q and dQ of any kind together (book 4.6, 6.3, 8.2).
 
 ``Q = (dPhi/dq) Phi^-1`` is the definition of a joint's derivative operator
-(DESIGN.md); every kind is tested against central differences of its own
-``Phi``.  Lower and higher pairs share the terms of their three results, so
-one call computes as many as ``order`` asks for.
+(docs/architecture.md, Conventions); every kind is tested against central
+differences of its own ``Phi``.  Lower and higher pairs share the terms of
+their three results, so one call computes as many as ``order`` asks for.
 """
 
 from __future__ import annotations

@@ -5,7 +5,7 @@ The catalogue's ``sphere`` and ``open`` turn by Euler-Rodrigues parameters,
 which never lock, and its ``flat`` slides by (x, y); none of those variables
 is an IMP variable, so none can carry a spring, a damper, a load, a motion or
 an initial condition on IMP's terms.  These kinds have IMP's variables as
-their coordinates (reference §7.2): ``gimbal`` Phi = [[Rx(a) Ry(b) Rz(c), 0],
+their coordinates (docs/imp-language.md §7.2): ``gimbal`` Phi = [[Rx(a) Ry(b) Rz(c), 0],
 [0, 1]], ``open_cardan`` the same turned after a translation (x, y, z) in the
 first frame, ``flat_polar`` Phi = Rz(phi1) Tx(r) Rz(phi2).  Like IMP's own
 they are singular where IMP's are: the Cardan angles at b = +-90 deg (a and c

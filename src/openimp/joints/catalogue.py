@@ -11,8 +11,8 @@ book 8.2, together) and ``extract``, the inverse: ``q`` from a measured
 ``Phi`` (used at assembly),
 
 plus a conformity check of the two joint frames against the kind's
-conventions.  ``Q`` is the definition (DESIGN.md), so every kind is tested
-against central differences of its own ``Phi``.
+conventions.  ``Q`` is the definition (docs/architecture.md, Conventions), so
+every kind is tested against central differences of its own ``Phi``.
 
 Conventions that differ from the book's printed ones are documented at each
 kind.  Lengths inside the kernels are internal (scaled) lengths; the
@@ -53,8 +53,9 @@ radians, lengths in model units).  The first body is the one named first.
     or IMP's ``ratio=`` (> 0; ``shaft_angle=``, default 90 deg); ``radius=`` (pitch
     radius of the second gear) puts the frames at the pitch-circle centres.
     **Decision:** pitch cones roll without slip, phi' = -(sin g1/sin g2) phi1 =
-    -(R1/R2) phi1 (digest ch 1-6, section 9 item 8); ``book_ratio=True`` gives the
-    book's / IMP's +(tan g1/tan g2) phi1.  The (1,1) entry of (4.34) is corrected.
+    -(R1/R2) phi1 (docs/kinematics.md, "Joint kinds": with the book's ratio of
+    (4.34) the pitch cones slip); ``book_ratio=True`` gives the book's / IMP's
+    +(tan g1/tan g2) phi1.  The (1,1) entry of (4.34) is corrected.
 ``point_curve`` (4.6.12), ``t`` (curve parameter, unscaled), ``phi2`` (angle),
     ``phi3`` (length).  First body carries the curve (u(t), v(t)) in its uv plane,
     ``origin2`` = the point, on the curve.  ``line_curve`` (4.6.13): ``t``, ``phi2``

@@ -1,10 +1,11 @@
 """Elimination stage: the Jacobian of the loop equations and its restricted pivoting
 (book 6.5.3), the replay of its row operations and the first geometric derivatives.
 
-The Jacobian is the only matrix ever inverted for derivatives (DESIGN.md): the
-by-products of its elimination (J11^-1 J12, J11^-1 J13 and the row operations)
-serve the Newton step, the predictor of the next posture, the velocities
-(7.14), the accelerations (8.44) and, later, the forces (ch 17).
+The Jacobian is the only matrix ever inverted for derivatives
+(docs/architecture.md, Conventions): the by-products of its elimination
+(J11^-1 J12, J11^-1 J13 and the row operations) serve the Newton step, the
+predictor of the next posture, the velocities (7.14), the accelerations (8.44)
+and, later, the forces (ch 17).
 
 * :func:`jacobian`: J = [L(i,h) screws of D_h | ER rows] (6.45);
 * :func:`eliminate`: restricted complete-pivoting Gauss-Jordan on [J | E];

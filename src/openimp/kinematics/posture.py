@@ -29,7 +29,8 @@ INTERRUPTED = 4
 
 @njit(nrt=False, inline="always")
 def normalise_er(KP: tuple, q: np.ndarray) -> None:
-    """Put every Euler-Rodrigues block of ``q`` back on the unit sphere (digest 9.27)."""
+    """Put every Euler-Rodrigues block of ``q`` back on the unit sphere (the book's Q of
+    the spheric and open joints, 6.22 and 6.24, hold only where |e| = 1)."""
     K = model_views(KP)
     for k in range(K.er.shape[0]):
         e0 = K.er[k]

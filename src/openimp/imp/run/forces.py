@@ -1,11 +1,11 @@
-"""The force analysis of a solved run, in IMP's conventions (reference §2.3, §2.4).
+"""The force analysis of a solved run, in IMP's conventions (docs/imp-language.md §2.3, §2.4).
 
 After the runner has solved the motion (or, in static mode, the equilibria,
 whose FGCs are held there with the residual as their load), :func:`compute` calls
 :func:`openimp.forces` on it (inertia loads from the input velocities and
 accelerations, gravity, springs, dampers, applied forces and torques; every
 SGC and every held FGC carries the drive load it needs) and converts the
-results to what IMP lists in **kinematic mode** (settled in reference §2.4):
+results to what IMP lists in **kinematic mode** (settled in docs/imp-language.md §2.4):
 
 * a joint's load is the load of the **first-named** link on the **second**,
   forces FX FY FZ on the axes u', v', w' of the joint frame on the **second**

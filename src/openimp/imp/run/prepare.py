@@ -100,7 +100,7 @@ class Prepared:
 
 def _force_items(req: Request, state: State, built: Built, items: list[Item],
                  skipped: list[str], seen: set[tuple[str, str, str, str]]) -> None:
-    """The items of a FORCE request: joints, springs and dampers (reference §9)."""
+    """The items of a FORCE request: joints, springs and dampers (docs/imp-language.md §9)."""
     springs = state.extras.get("springs", {})
     dampers = state.extras.get("dampers", {})
     model = built.model
@@ -223,14 +223,14 @@ class _IgnoredError(Exception):
 
 #: what a DYNAMICS output kind is called by openimp.transfer_function
 _OUT_KIND = {"POSITION": "position", "VELOCITY": "velocity", "ACCEL": "accel"}
-#: the units listings print (reference §2.3): degrees for an angle's position only
+#: the units listings print (docs/imp-language.md §2.3): degrees for an angle's position only
 _OUT_UNIT = {("angle", "POSITION"): "deg", ("angle", "VELOCITY"): "rad/s",
              ("angle", "ACCEL"): "rad/s^2", ("length", "POSITION"): "length",
              ("length", "VELOCITY"): "length/s", ("length", "ACCEL"): "length/s^2"}
 
 
 def frequency_grid(w0: float, wf: float, winc: float) -> np.ndarray:
-    """The frequencies (rad/s) of LIST and PLOT DYNAMICS (reference §9): w0, then
+    """The frequencies (rad/s) of LIST and PLOT DYNAMICS (docs/imp-language.md §9): w0, then
     w0 + winc, then logarithmic steps of the same ratio (w0 + winc) / w0 while
     they stay below wf, and wf as the last one.  Raises ``_IgnoredError`` unless
     w0, wf, winc > 0 and wf > w0, or when the grid would exceed ``MAX_STEPS`` rows."""
@@ -338,7 +338,7 @@ def _dyn_outputs(kind: str, name: str, state: State, built: Built, system: Any
 def dynamics_items(state: State, built: Built, system: Any, drivers: list[Driver],
                    freedom: tuple[int, int], items: list[Item], skipped: list[str]) -> None:
     """The items of the DYNAMICS requests of a kinematic run, checked as IMP does
-    (reference §9): a bad frequency range, input, namein or nin, or no free
+    (docs/imp-language.md §9): a bad frequency range, input, namein or nin, or no free
     generalized coordinate, ignores the request with a message; a bad output
     pair is dropped with a message.  A FREQUENCY request with no FGC is kept
     (IMP says so at each position) and reported."""

@@ -133,7 +133,7 @@ def value_resolver(prep: Prepared, sol: Solution, k: int, t: float, motions: Any
 
 def stop_at_value(prep: Prepared, sol: Solution, notes: list[str]) -> Solution:
     """``sol`` cut before the first step at which a VALUE of the run's requests
-    evaluates RETURN or END: IMP stops the simulation there (reference §5)."""
+    evaluates RETURN or END: IMP stops the simulation there (docs/imp-language.md §5)."""
     st = prep.spec.state
     first: tuple[int, str, SimulationStop] | None = None
     for it in prep.items:
@@ -291,7 +291,7 @@ def make_table(prep: Prepared, sol: Solution, it: Item, notes: list[str]) -> Tab
     return tables_from_columns(request, f"{it.kind} {it.name}", cols, units, data)
 
 
-#: the components of a joint load (reference §2.3) and their units
+#: the components of a joint load (docs/imp-language.md §2.3) and their units
 FORCE_COLUMNS = ("FX", "FY", "FZ", "MX", "MY", "MZ")
 _FORCE, _MOMENT = "force", "force*length"
 

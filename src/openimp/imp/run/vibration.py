@@ -1,5 +1,5 @@
 """Linearized vibration of a kinematic run: PRINT FREQUENCY and PRINT / LIST / STORE /
-PLOT DYNAMICS (reference §1.1 items 7-8, §1.2, §9).
+PLOT DYNAMICS (docs/imp-language.md §1.1 items 7-8, §1.2, §9).
 
 The equations of motion are linearized (:func:`openimp.linearize`, book ch 11)
 about a solved position of the run: the input motions of the run are the
