@@ -296,8 +296,8 @@ def test_the_console_entry_exits_with_mains_status(tmp_path):
     its output flushed (it skips Python's finalization, where a Ctrl-C that interrupted
     an import turned a 130 into a death by SIGINT)."""
     deck = tmp_path / "d.imp"
-    deck.write_text("ZPIN (BASE, CRANK) = A\nDATA POSITION (A) = 0, 10, 2\nLIST POSITION (A)\n"
-                    "EXECUTE\nEND\n")
+    deck.write_text("ZPIN (BASE, CRANK) = A\nDATA ZPIN (A) = 0,0,0; 1,0,0; 1,0,0\n"
+                    "DATA POSITION (A) = 0, 10, 2\nLIST POSITION (A)\nEXECUTE\nEND\n")
     for argv, status in ((["run", str(deck)], 0), (["check", str(tmp_path / "no.imp")], 2)):
         p = subprocess.run([sys.executable, "-c", "import sys; from openimp.cli import entry; "
                             f"sys.argv = ['openimp'] + {argv!r}; entry()"],

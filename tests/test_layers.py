@@ -99,7 +99,7 @@ def test_no_import_cycles():
 #: DESIGN.md's layers, top first: a module may import only from its own layer and above.
 LAYERS = [
     ("openimp.errors", "openimp.results", "openimp._jit", "openimp.limits", "openimp.files",
-     "openimp.workspace", "openimp._interrupt"),
+     "openimp.workspace", "openimp._interrupt", "openimp._announce"),
     ("openimp.spatial", "openimp.mat4", "openimp.linalg", "openimp.massprops"),
     ("openimp.joints",),
     ("openimp.model",),
