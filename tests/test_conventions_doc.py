@@ -25,7 +25,7 @@ import numpy as np
 import pytest
 
 import openimp
-from helpers.decks import run_deck, write
+from helpers.decks import FOURBAR_JOINTS, run_deck, write
 
 DOC = Path(__file__).parent.parent / "docs" / "forces.md"
 DEG = math.pi / 180.0
@@ -40,15 +40,7 @@ CRANK_DEG = 30.0
 
 DECK = """TITLE = FOUR-BAR HELD STILL
 UNIT (MASS) = 1
-ZPIN (BASE, CRANK) = A
-ZPIN (CRANK, COUPLER) = B
-ZPIN (COUPLER, ROCKER) = C
-ZPIN (ROCKER, BASE) = D
-DATA ZPIN (A) = 0,0,0; 1,0,0; 1,0,0
-DATA ZPIN (B) = 1,0,0; 2,0,0; 3,3,0
-DATA ZPIN (C) = 3,3,0; 5,6,0; 4,0,0
-DATA ZPIN (D) = 4,0,0; 3,3,0; 5,0,0
-DATA MASS (CRANK, LINK) = 1; 0.5, 0, 0
+""" + FOURBAR_JOINTS + """DATA MASS (CRANK, LINK) = 1; 0.5, 0, 0
 DATA MASS (COUPLER, LINK) = 2; 2.5, 4, 0
 DATA MASS (ROCKER, LINK) = 3; 3.5, 1.5, 0
 DATA GRAVITY = 0, -9.81, 0

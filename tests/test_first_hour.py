@@ -15,20 +15,12 @@ import sys
 import pytest
 
 import openimp
-from helpers.decks import cpu_limit, line_of, run_deck, write
+from helpers.decks import FOUR_LOOP, cpu_limit, line_of, run_deck, write
 from openimp.imp.deck import load
 from openimp.imp.interp import DeckError
 from openimp.topology import misspelt_bodies, one_edit
 
-FOUR = """ZPIN (BASE, CRNK) = A
-DATA ZPIN (A) = 0,0,0; 1,0,0; 1,0,0
-ZPIN (CRNK, CPLR) = B
-DATA ZPIN (B) = 1,0,0; 2,0,0; 2,0,0
-ZPIN (CPLR, ROCK) = C
-DATA ZPIN (C) = 3,2,0; 4,2,0; 4,2,0
-ZPIN (ROCK, BASE) = D
-DATA ZPIN (D) = 4,0,0; 5,0,0; 5,0,0
-"""
+FOUR = FOUR_LOOP
 RUN = "DATA POSITION (A) = 0, 10, 3\nLIST POSITION (D)\nEXECUTE\nEND\n"
 CLI = [sys.executable, "-m", "openimp.cli"]
 

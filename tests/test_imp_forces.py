@@ -22,6 +22,7 @@ import numpy as np
 import pytest
 
 import openimp
+from helpers.decks import FOURBAR_JOINTS
 from openimp import Model
 from openimp.imp.deck import load
 from openimp.imp.interp import DeckError
@@ -64,15 +65,7 @@ def listing(echo: list[str], header: str) -> list[list[str]]:
 
 
 FOURBAR = """TITLE = FOUR-BAR
-ZPIN (BASE, CRANK) = A
-ZPIN (CRANK, COUPLER) = B
-ZPIN (COUPLER, ROCKER) = C
-ZPIN (ROCKER, BASE) = D
-DATA ZPIN (A) = 0,0,0; 1,0,0; 1,0,0
-DATA ZPIN (B) = 1,0,0; 2,0,0; 3,3,0
-DATA ZPIN (C) = 3,3,0; 5,6,0; 4,0,0
-DATA ZPIN (D) = 4,0,0; 3,3,0; 5,0,0
-POINT (COUPLER) = CB, CP, CC
+""" + FOURBAR_JOINTS + """POINT (COUPLER) = CB, CP, CC
 POINT (BASE) = Q, Q2
 DATA POINT (CB, ABS) = 1, 0, 0
 DATA POINT (CP, ABS) = 2.5, 4, 0

@@ -14,21 +14,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from helpers.decks import cpu_limit, line_of, run_deck, write
+from helpers.decks import FOUR_LOOP, cpu_limit, line_of, run_deck, write
 from openimp.imp.deck import load
 from openimp.imp.interp import DeckError
 
 REF = Path(__file__).resolve().parents[2] / "shared" / "reference"
 
-FOUR = """ZPIN (BASE, CRNK) = A
-DATA ZPIN (A) = 0,0,0; 1,0,0; 1,0,0
-ZPIN (CRNK, CPLR) = B
-DATA ZPIN (B) = 1,0,0; 2,0,0; 2,0,0
-ZPIN (CPLR, ROCK) = C
-DATA ZPIN (C) = 3,2,0; 4,2,0; 4,2,0
-ZPIN (ROCK, BASE) = D
-DATA ZPIN (D) = 4,0,0; 5,0,0; 5,0,0
-POINT (CPLR) = P
+FOUR = FOUR_LOOP + """POINT (CPLR) = P
 DATA POINT (P, ABS) = 2, 1, 0
 """
 RUN = "DATA POSITION (A) = 0, 10, 3\nLIST POSITION (A)\nEXECUTE\nEND\n"

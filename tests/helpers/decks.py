@@ -11,6 +11,29 @@ from openimp.imp.deck import load
 #: minutes): a run that loops fails, a busy machine does not
 CPU_LIMIT = 900
 
+#: a four-bar with four-letter link names (crank 1, coupler sqrt 8, rocker sqrt 5, ground
+#: 4): the tests' smallest closed loop, eight lines
+FOUR_LOOP = """ZPIN (BASE, CRNK) = A
+DATA ZPIN (A) = 0,0,0; 1,0,0; 1,0,0
+ZPIN (CRNK, CPLR) = B
+DATA ZPIN (B) = 1,0,0; 2,0,0; 2,0,0
+ZPIN (CPLR, ROCK) = C
+DATA ZPIN (C) = 3,2,0; 4,2,0; 4,2,0
+ZPIN (ROCK, BASE) = D
+DATA ZPIN (D) = 4,0,0; 5,0,0; 5,0,0
+"""
+
+#: examples/fourbar.imp's four-bar (BASE, CRANK, COUPLER, ROCKER), its joints only
+FOURBAR_JOINTS = """ZPIN (BASE, CRANK) = A
+ZPIN (CRANK, COUPLER) = B
+ZPIN (COUPLER, ROCKER) = C
+ZPIN (ROCKER, BASE) = D
+DATA ZPIN (A) = 0,0,0; 1,0,0; 1,0,0
+DATA ZPIN (B) = 1,0,0; 2,0,0; 3,3,0
+DATA ZPIN (C) = 3,3,0; 5,6,0; 4,0,0
+DATA ZPIN (D) = 4,0,0; 3,3,0; 5,0,0
+"""
+
 #: the fuzz findings' pendulum (issue 30): 2 (mass units) at 0.25 m, 1/6 kg m^2 about the
 #: pin; its dynamic part is added by the tests
 PENDULUM_HEAD = """\
