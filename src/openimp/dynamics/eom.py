@@ -58,7 +58,7 @@ from openimp.system import (
 from openimp.workspace import WORKSPACES
 
 
-@njit(nrt=False, inline="always")
+@njit(nrt=False)
 def generalized(KP: tuple, DP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | None,
                 ptol: float) -> tuple[int, int]:
     """Evaluate and eliminate the loop equations at S.q (assembled) and set up the
@@ -84,7 +84,7 @@ def generalized(KP: tuple, DP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | Non
     return rank, nf
 
 
-@njit(nrt=False, inline="always")
+@njit(nrt=False)
 def generalized_forces(KP: tuple, ZP: tuple, nf: int, c: np.ndarray, Q: np.ndarray) -> None:
     """c_j = sum_b W_{b,j} . Fin_b and Q_j = sum_b W_{b,j} . Fext_b + sum_a phi'_{a,j} fq_a
     (10.12, 10.13) for the nf coordinates of z.W, z.Gf."""
@@ -105,7 +105,7 @@ def generalized_forces(KP: tuple, ZP: tuple, nf: int, c: np.ndarray, Q: np.ndarr
         Q[j] = qj
 
 
-@njit(nrt=False, inline="always")
+@njit(nrt=False)
 def eom_rates(KP: tuple, DP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | None,
               ptol: float, psid: np.ndarray) -> tuple[int, int]:
     """The kinematic half of :func:`eom`: the generalized coordinates at S.q
@@ -127,7 +127,7 @@ def eom_rates(KP: tuple, DP: tuple, ZP: tuple, S: tuple, gen: np.ndarray | None,
     return rank, nf
 
 
-@njit(nrt=False, inline="always")
+@njit(nrt=False)
 def eom_loads(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, nf: int,
               out: tuple) -> tuple[float, float, float]:
     """The dynamic half of :func:`eom` after :func:`eom_rates`: M, c, Q into ``out`` =

@@ -21,7 +21,7 @@ from openimp._jit import njit
 from openimp.system import data_views, dyn_data_views, dyn_views, model_views
 
 
-@njit(nrt=False, inline="always")
+@njit(nrt=False)
 def pseudo_wrench(G: np.ndarray, L: np.ndarray, out: np.ndarray) -> None:
     """The wrench w with screw . w = trace(S G L^T) for every screw S (the trace form 10.7).
 
@@ -52,14 +52,14 @@ def pseudo_wrench(G: np.ndarray, L: np.ndarray, out: np.ndarray) -> None:
     out[5] = x01 - x10
 
 
-@njit(nrt=False, inline="always")
+@njit(nrt=False)
 def massless(J: np.ndarray) -> bool:
     """A pseudo-inertia (4 x 4, any axes) of no mass and no inertia: its diagonal, which
     is never negative, is all zero."""
     return J[3, 3] == 0.0 and J[0, 0] == 0.0 and J[1, 1] == 0.0 and J[2, 2] == 0.0
 
 
-@njit(nrt=False, inline="always")
+@njit(nrt=False)
 def screw_rows(s: np.ndarray, L: np.ndarray) -> None:
     """The top rows (3, 4) of the operator [[skew(w), v], [0, 0]] of screw s = (v, w)."""
     L[0, 0] = 0.0
@@ -76,7 +76,7 @@ def screw_rows(s: np.ndarray, L: np.ndarray) -> None:
     L[2, 3] = s[2]
 
 
-@njit(nrt=False, inline="always")
+@njit(nrt=False)
 def acceleration_rows(V: np.ndarray, A: np.ndarray, L: np.ndarray) -> None:
     """Top rows of alpha + omega omega (8.52 with 8.49): the operator that gives the
     acceleration of every point of the body, R'' = (alpha + omega omega) R.
@@ -101,7 +101,7 @@ def acceleration_rows(V: np.ndarray, A: np.ndarray, L: np.ndarray) -> None:
     L[2, 3] = A[2] + wx * V[1] - wy * V[0]
 
 
-@njit(nrt=False, inline="always")
+@njit(nrt=False)
 def body_inertias(KP: tuple, DP: tuple, YP: tuple, ZP: tuple) -> None:
     """G_b = T_0b J_b T_0b^T for every body (the pseudo-inertia in global axes, 9.7).
 
@@ -142,7 +142,7 @@ def body_inertias(KP: tuple, DP: tuple, YP: tuple, ZP: tuple) -> None:
         G[3, 3] = m
 
 
-@njit(nrt=False, inline="always")
+@njit(nrt=False)
 def inertia_wrenches(KP: tuple, DP: tuple, ZP: tuple) -> float:
     """Inertia wrench of every body, trace(W G (alpha + omega omega)^T) (10.8), into z.Fin,
     and the kinetic energy 1/2 sum_b trace(omega_b G_b omega_b^T) (9.7), returned.

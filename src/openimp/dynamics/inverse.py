@@ -22,7 +22,7 @@ variables and rates:
 
 from __future__ import annotations
 
-from typing import Any, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 
@@ -34,18 +34,6 @@ from openimp.kinematics.position import position, screws
 from openimp.kinematics.rates import accelerations, drift, velocity
 from openimp.kinematics.sweep import Solver, sweep_steps
 from openimp.system import data_views, dyn_data_views, dyn_views, model_views
-
-
-def _inlined(fn: Any) -> Any:
-    """A kinematic stage compiled into the force kernels that call it once per step:
-    a regular call would pass every array of its packed arguments at each step."""
-    return njit(nrt=False, inline="always")(getattr(fn, "py_func", fn))
-
-
-_accelerations = _inlined(accelerations)
-_position = _inlined(position)
-_velocity = _inlined(velocity)
-_drift = _inlined(drift)
 
 
 class StepRows(NamedTuple):
@@ -109,7 +97,7 @@ def evaluate(KP: tuple, DP: tuple, S: tuple, gen: np.ndarray | None, ptol: float
     return rank
 
 
-@njit(nrt=False, inline="always")
+@njit(nrt=False)
 def body_wrenches(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple
                   ) -> tuple[float, float, float]:
     """Body accelerations (8.52), the inertia wrench (10.8) and applied wrench of every
@@ -119,7 +107,7 @@ def body_wrenches(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple
     """
     z = dyn_data_views(ZP)
     K = model_views(KP)
-    _accelerations(KP, DP, S)
+    accelerations(KP, DP, S)
     body_inertias(KP, DP, YP, ZP)
     ke = inertia_wrenches(KP, DP, ZP)
     pe, gp = applied_loads(KP, DP, YP, ZP, S)
@@ -129,7 +117,7 @@ def body_wrenches(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple
     return ke, pe, gp
 
 
-@njit(nrt=False, inline="always")
+@njit(nrt=False)
 def transmitted(KP: tuple, DP: tuple, ZP: tuple) -> None:
     """Wsum_h = sum_b P(b,h) Fb_b for every joint (zero for the chords, on no path) and
     gvar_a = D_a . Wsum_h(a) - fq_a for every joint variable.
@@ -171,7 +159,7 @@ def transmitted(KP: tuple, DP: tuple, ZP: tuple) -> None:
             z.gvar[a] = s
 
 
-@njit(nrt=False, inline="always")
+@njit(nrt=False)
 def drive_forces(DP: tuple, ZP: tuple, rank: int, nf: int, out: np.ndarray) -> None:
     """tau_j = sum_b W_{b,j} . Fb_b - sum_h phi'_{h,j} fq_h = sum_a phi'_{a,j} gvar_a for the
     first nf columns of z.cols (11.14), into out[z.cols[j]] (out: (nq,)).
@@ -277,7 +265,7 @@ def reactions(KP: tuple, DP: tuple, ZP: tuple, rank: int, itol: float, R: np.nda
                 R[h, k] = np.nan
 
 
-@njit(nrt=False, inline="always")
+@njit(nrt=False)
 def _components(A: np.ndarray, ox: float, oy: float, oz: float, W: np.ndarray,
                 out: np.ndarray) -> None:
     """The power of the six unit fictitious screws of a joint frame A (origin o) on the
@@ -337,7 +325,7 @@ def force_step(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple, rank: int, 
         out.eskip[s, i] = z.eskip[i]
 
 
-@njit(nrt=False, inline="always")
+@njit(nrt=False)
 def _load_row(ZP: tuple, S: tuple, rows: tuple, s: int) -> None:
     """Row s of the stored motion into the state and its law values into the scratch."""
     z = dyn_data_views(ZP)
@@ -376,10 +364,10 @@ def open_chain_steps(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple,
     """
     for s in range(rows.Q.shape[0]):
         _load_row(ZP, S, rows, s)
-        _position(KP, DP, S, gen, 1)
+        position(KP, DP, S, gen, 1)
         screws(KP, DP, gen)
-        _velocity(KP, DP, S)
-        _drift(KP, DP, S, gen)
+        velocity(KP, DP, S)
+        drift(KP, DP, S, gen)
         force_step(KP, DP, YP, ZP, S, 0, opt, out, s)
 
 

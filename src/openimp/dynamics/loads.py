@@ -32,7 +32,7 @@ from openimp.system import (
 COINCIDENT = 1e-12
 
 
-@njit(nrt=False, inline="always")
+@njit(nrt=False)
 def point_motion(KP: tuple, DP: tuple, p: int, out: np.ndarray, vel: np.ndarray) -> int:
     """Global position (out) and velocity (vel) of point p; returns its body."""
     K = model_views(KP)
@@ -49,7 +49,7 @@ def point_motion(KP: tuple, DP: tuple, p: int, out: np.ndarray, vel: np.ndarray)
     return b
 
 
-@njit(nrt=False, inline="always")
+@njit(nrt=False)
 def unit_between(r1: np.ndarray, r2: np.ndarray, u: np.ndarray) -> float:
     """u = (r1 - r2) / |r1 - r2| and the length |r1 - r2|; u is left unnormalised when
     the points coincide (length below :data:`COINCIDENT`: the caller skips)."""
@@ -64,7 +64,7 @@ def unit_between(r1: np.ndarray, r2: np.ndarray, u: np.ndarray) -> float:
     return ln
 
 
-@njit(nrt=False, inline="always")
+@njit(nrt=False)
 def _add_force(F: np.ndarray, f: np.ndarray, s: float, r: np.ndarray) -> None:
     """F += the wrench of the force s f applied at r (f, r x f)."""
     fx, fy, fz = s * f[0], s * f[1], s * f[2]
@@ -76,7 +76,7 @@ def _add_force(F: np.ndarray, f: np.ndarray, s: float, r: np.ndarray) -> None:
     F[5] += r[0] * fy - r[1] * fx
 
 
-@njit(nrt=False, inline="always")
+@njit(nrt=False)
 def applied_loads(KP: tuple, DP: tuple, YP: tuple, ZP: tuple, S: tuple
                   ) -> tuple[float, float]:
     """Applied wrenches on the bodies (z.Fext), loads on the joint variables (z.fq), the
