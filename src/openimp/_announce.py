@@ -19,21 +19,22 @@ from typing import Any, TextIO
 from openimp._interrupt import PENDING
 
 #: CPU seconds a cold kinematic run compiles, measured on the reference 2-core machine
-#: (benchmarks/README.md); said to the user as the expected time
-COMPILE_SECONDS = 20
-#: CPU seconds a first force analysis compiles on top (openimp.dynamics; measured 16-20 s)
-FORCE_COMPILE_SECONDS = 20
+#: (``python -m benchmarks.coldstart``, ``benchmarks/coldstart.md``: a sweep, 23 s);
+#: said to the user as the expected time
+COMPILE_SECONDS = 25
+#: CPU seconds a first force analysis compiles on top of the kinematic kernels
+#: (openimp.dynamics; measured 48 s in all for openimp.forces)
+FORCE_COMPILE_SECONDS = 25
 #: CPU seconds the linearization kernel compiles on top of the force stages it calls
-#: (openimp.dynamics.linear; measured on the reference machine, benchmarks/README.md)
-LINEAR_COMPILE_SECONDS = 30
+#: (openimp.dynamics.linear; linearize and modes after an equilibrium measured 110 s in all)
+LINEAR_COMPILE_SECONDS = 45
 #: CPU seconds the equilibrium search compiles on top of the force stages (openimp.dynamics.
-#: statics with the stiffness stage of openimp.dynamics.linear; measured 41-57 s in the
-#: statics benchmark on the reference machine, loaded)
-STATIC_COMPILE_SECONDS = 45
+#: statics with the stiffness stage of openimp.dynamics.linear; measured 106 s in all)
+STATIC_COMPILE_SECONDS = 60
 #: CPU seconds a first time response compiles (openimp.dynamics.stepping with the
-#: equations-of-motion stage it calls; measured 65 s for the Dormand-Prince run and 54 s
-#: for the book's run on the reference machine, cold cache)
-DYNAMIC_COMPILE_SECONDS = 65
+#: equations-of-motion stage it calls; measured 250 s for the Dormand-Prince run and 346 s
+#: for the book's run in all, cold cache: the next compile to cut)
+DYNAMIC_COMPILE_SECONDS = 250
 
 
 class Announcer:
