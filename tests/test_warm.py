@@ -8,7 +8,7 @@ import pytest
 
 import openimp
 from helpers.models import fourbar
-from openimp import _warm
+from openimp import _announce, _warm
 from openimp._jit import JIT_ENABLED
 
 pytestmark = pytest.mark.skipif(not JIT_ENABLED, reason="kernels not compiled (OPENIMP_NOJIT)")
@@ -83,7 +83,7 @@ def test_announcer_says_once_that_it_compiles_and_how_long():
     import types
 
     buf = _io.StringIO()
-    talk = _warm.Announcer(buf, live=False, prefix="deck.imp: ")
+    talk = _announce.Announcer(buf, live=False, prefix="deck.imp: ")
 
     def kernel(name, module="openimp.kinematics.posture"):
         fn = types.FunctionType((lambda: None).__code__, {}, name)
@@ -101,10 +101,10 @@ def test_announcer_says_once_that_it_compiles_and_how_long():
     lines = buf.getvalue().splitlines()
     assert len(lines) == 2
     assert lines[0].startswith("openimp: note: deck.imp: compiling the kinematic kernels")
-    assert f"about {_warm.COMPILE_SECONDS} s" in lines[0]
+    assert f"about {_announce.COMPILE_SECONDS} s" in lines[0]
     assert lines[1].startswith("openimp: note: deck.imp: 2 kernels compiled and cached in")
     quiet = _io.StringIO()
-    _warm.Announcer(quiet, live=False).close()
+    _announce.Announcer(quiet, live=False).close()
     assert quiet.getvalue() == ""
 
 
@@ -115,7 +115,7 @@ def test_announcer_says_when_the_force_kernels_compile_too():
     import io as _io
 
     buf = _io.StringIO()
-    talk = _warm.Announcer(buf, live=False, prefix="deck.imp: ")
+    talk = _announce.Announcer(buf, live=False, prefix="deck.imp: ")
     for name, module in (("sweep_steps", "openimp.kinematics.sweep"),
                          ("forces_steps", "openimp.dynamics.inverse"),
                          ("eom", "openimp.dynamics.eom")):
@@ -126,10 +126,10 @@ def test_announcer_says_when_the_force_kernels_compile_too():
     assert len(lines) == 3, lines
     assert "compiling the kinematic kernels" in lines[0]
     assert "compiling the force kernels too" in lines[1]
-    assert f"about {_warm.FORCE_COMPILE_SECONDS} s" in lines[1]
+    assert f"about {_announce.FORCE_COMPILE_SECONDS} s" in lines[1]
     assert "3 kernels compiled" in lines[2]
     buf = _io.StringIO()
-    talk = _warm.Announcer(buf, live=False)
+    talk = _announce.Announcer(buf, live=False)
     talk._on_start(kernel("forces_steps", "openimp.dynamics.inverse"))
     talk.depth -= 1
     talk._on_start(kernel("eom", "openimp.dynamics.eom"))
@@ -161,7 +161,7 @@ def test_announcer_names_its_own_group(kern, module, nested, nested_module, grou
     import io as _io
 
     buf = _io.StringIO()
-    talk = _warm.Announcer(buf, live=False)
+    talk = _announce.Announcer(buf, live=False)
     talk._on_start(kernel("sweep_steps", "openimp.kinematics.sweep"))
     talk.depth -= 1
     talk._on_start(kernel(kern, module))

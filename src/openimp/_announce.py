@@ -137,17 +137,11 @@ class Announcer:
 
             event.unregister("numba:compile", self._listener)
             self._listener = None
-        if self.started is not None and self.stream is None:
+        if self.started is not None:
+            if self.live and not self.count:  # (_note clears the progress line otherwise)
+                self.stream.write("\r" + " " * 70 + "\r")
             self._note(f"{self.count} kernels compiled and cached in "
                        f"{self.finished - self.started:.0f} s")
-            self.started = None
-        if self.started is not None and self.stream is not None:
-            if self.live:
-                self.stream.write("\r" + " " * 70 + "\r")
-            self.stream.write(f"openimp: note: {self.prefix}{self.count} kernels compiled and "
-                              f"cached in "
-                              f"{self.finished - self.started:.0f} s\n")
-            self.stream.flush()
             self.started = None
 
 
@@ -155,7 +149,7 @@ class Announcer:
 SESSION: Announcer | None = None
 
 
-def announce() -> Announcer | None:
+def announce() -> Announcer:
     """Say every compile of a Python session through the ``openimp`` logger (a warning once
     per group of kernels, with the expected time: stderr by default, a notebook's
     output too; ``logging.getLogger("openimp").setLevel(logging.ERROR)`` silences it).

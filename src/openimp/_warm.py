@@ -5,7 +5,7 @@ openimp), most of the first run is numba compiling the kernels its analysis
 uses (a kinematic run compiles only the kinematic ones).  Two things make that
 first run bearable:
 
-* :class:`Announcer` says so once, with the expected time, when the first
+* :class:`~openimp._announce.Announcer` says so once, with the expected time, when the first
   kernel starts compiling, and on a terminal shows which kernel it is at;
   it says nothing when the kernels load from the cache.
 * :func:`start` lets a second process compile the kernels a run needs later
@@ -34,14 +34,6 @@ import sys
 from collections.abc import Sequence
 from typing import Any
 
-from openimp._announce import (  # noqa: F401 - the command line's announcer
-    COMPILE_SECONDS,
-    DYNAMIC_COMPILE_SECONDS,
-    FORCE_COMPILE_SECONDS,
-    LINEAR_COMPILE_SECONDS,
-    STATIC_COMPILE_SECONDS,
-    Announcer,
-)
 from openimp._jit import JIT_ENABLED
 
 #: A kernel the helper compiles last: its cache entry means the helper's work is done.

@@ -313,7 +313,7 @@ def _report(runs: list, problems: list[str]) -> int:  # type: ignore[type-arg]
 
 def _cmd_run(args: argparse.Namespace) -> int:
     from openimp import _warm
-    from openimp._announce import announce
+    from openimp._announce import Announcer, announce
 
     problem = _target_problem(args)
     if problem is not None:
@@ -321,7 +321,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         return EXIT_INPUT
     # a cold kernel cache: say so, and compile the rate kernels on an idle core
     _warm.start(_warm.deck_flavours(args.deck))
-    talk = _warm.Announcer(sys.stderr, sys.stderr.isatty(), prefix=f"{args.deck}: ")
+    talk = Announcer(sys.stderr, sys.stderr.isatty(), prefix=f"{args.deck}: ")
     session = announce()
     session.muted = True  # this run's announcer says it, with its progress line
     try:
