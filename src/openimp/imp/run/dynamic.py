@@ -407,6 +407,7 @@ def holder(prep: Prepared, notes: list[str]) -> Callable[[Trajectory], float]:
     laws = prep.built.dyn.laws
     assert laws is not None
     scale: dict[tuple[str, str, int], float] = {}
+    said: list[bool] = []
 
     def on_accept(tr: Trajectory) -> float:
         t = float(tr.time[0])
@@ -436,13 +437,13 @@ def holder(prep: Prepared, notes: list[str]) -> Callable[[Trajectory], float]:
             if jump > LAG_TOL * big:
                 want = min(want, 0.9 * h * math.sqrt(LAG_TOL * big / jump))
             laws.held[key] = (v, (v - v0) / h, t)
-        if laws.held:
-            told = ("ACCEL(...) and FORCE(...) in the data of springs, dampers and loads are "
-                    "read a step behind while integrating, as IMP read its stored current "
-                    "values: extrapolated from the last two accepted steps, which are kept "
-                    f"short enough for the extrapolation to hold to {LAG_TOL:g} of the value")
-            if told not in notes:
-                notes.append(told)
+        if laws.held and not said:  # once per run, not a search of the notes per step
+            said.append(True)
+            notes.append("ACCEL(...) and FORCE(...) in the data of springs, dampers and loads "
+                         "are read a step behind while integrating, as IMP read its stored "
+                         "current values: extrapolated from the last two accepted steps, which "
+                         f"are kept short enough for the extrapolation to hold to {LAG_TOL:g} "
+                         "of the value")
         return want
 
     return on_accept
