@@ -171,7 +171,7 @@ def test_announcer_names_its_own_group(kern, module, nested, nested_module, grou
     lines = buf.getvalue().splitlines()
     assert len(lines) == 3, lines
     assert f"compiling the {group} kernels too" in lines[1]
-    assert f"about {getattr(_warm, seconds)} s" in lines[1]
+    assert f"about {getattr(_announce, seconds)} s" in lines[1]
     assert "2 kernels compiled" in lines[2]
 
 
